@@ -1,0 +1,176 @@
+//! The elevator description `elevator.toml` (DATA.md §3) and the prior knowledge derived from it.
+//!
+//! Only the rated values are required. Every optional key has a default derived from them,
+//! documented on its field; the fit uses these as the centres of wide priors, never as
+//! fixed values.
+
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Result};
+
+/// Standard gravity (m/s²).
+pub const G: f64 = 9.81;
+
+/// A traction elevator as described by its owner.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Elevator {
+    /// Rated load M_r (kg).
+    pub rated_load_kg: f64,
+    /// Rated speed (m/s).
+    pub rated_speed_mps: f64,
+    /// Number of floors served.
+    pub floors: u32,
+    /// Empty car mass (kg); default 1.2 × rated load.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub car_mass_kg: Option<f64>,
+    /// Counterweight balance ratio q: counterweight = car + q·M_r; default 0.45.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub counterweight_ratio: Option<f64>,
+    /// Motor voltage at rated speed (V); default 380.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rated_voltage_v: Option<f64>,
+    /// Typical floor height (m); default 3.0.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub floor_height_m: Option<f64>,
+}
+
+impl Elevator {
+    /// An elevator with only the rated values set; every other value takes its default.
+    pub fn new(rated_load_kg: f64, rated_speed_mps: f64, floors: u32) -> Self {
+        Elevator {
+            rated_load_kg,
+            rated_speed_mps,
+            floors,
+            car_mass_kg: None,
+            counterweight_ratio: None,
+            rated_voltage_v: None,
+            floor_height_m: None,
+        }
+    }
+
+    /// Reads and validates `elevator.toml`.
+    ///
+    /// # Errors
+    /// [`Error::Io`] when the file cannot be read, [`Error::Elevator`] when it is not valid
+    /// TOML, lacks a rated value or holds an implausible one.
+    pub fn from_toml_file(path: &Path) -> Result<Self> {
+        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        Self::from_toml_str(&text).map_err(|why| Error::Elevator { path: path.into(), why })
+    }
+
+    /// Parses and validates an elevator description; the error is a one-line reason.
+    ///
+    /// # Errors
+    /// A message naming the offending key when the text is not a valid description.
+    pub fn from_toml_str(text: &str) -> std::result::Result<Self, String> {
+        let e: Elevator = toml::from_str(text).map_err(|e| e.message().replace('\n', " "))?;
+        e.validate()?;
+        Ok(e)
+    }
+
+    /// Writes the description as TOML.
+    pub fn to_toml_string(&self) -> String {
+        let mut s = format!(
+            "rated_load_kg = {:?}\nrated_speed_mps = {:?}\nfloors = {}\n",
+            self.rated_load_kg, self.rated_speed_mps, self.floors
+        );
+        for (k, v) in [
+            ("car_mass_kg", self.car_mass_kg),
+            ("counterweight_ratio", self.counterweight_ratio),
+            ("rated_voltage_v", self.rated_voltage_v),
+            ("floor_height_m", self.floor_height_m),
+        ] {
+            if let Some(v) = v {
+                s.push_str(&format!("{k} = {v:?}\n"));
+            }
+        }
+        s
+    }
+
+    /// Checks every value against a physically plausible range.
+    ///
+    /// # Errors
+    /// A message naming the first key out of range.
+    pub fn validate(&self) -> std::result::Result<(), String> {
+        let check = |name: &str, v: f64, lo: f64, hi: f64| {
+            if v.is_finite() && (lo..=hi).contains(&v) {
+                Ok(())
+            } else {
+                Err(format!("`{name}` = {v} is out of range, expected {lo} to {hi}"))
+            }
+        };
+        check("rated_load_kg", self.rated_load_kg, 100.0, 10_000.0)?;
+        check("rated_speed_mps", self.rated_speed_mps, 0.1, 12.0)?;
+        check("floors", f64::from(self.floors), 2.0, 200.0)?;
+        if let Some(v) = self.car_mass_kg {
+            check("car_mass_kg", v, 50.0, 20_000.0)?;
+        }
+        if let Some(v) = self.counterweight_ratio {
+            check("counterweight_ratio", v, 0.0, 1.0)?;
+        }
+        if let Some(v) = self.rated_voltage_v {
+            check("rated_voltage_v", v, 10.0, 2_000.0)?;
+        }
+        if let Some(v) = self.floor_height_m {
+            check("floor_height_m", v, 1.5, 20.0)?;
+        }
+        Ok(())
+    }
+
+    /// Empty car mass (kg).
+    pub fn car_mass(&self) -> f64 {
+        self.car_mass_kg.unwrap_or(1.2 * self.rated_load_kg)
+    }
+
+    /// Counterweight balance ratio q.
+    pub fn counterweight_ratio(&self) -> f64 {
+        self.counterweight_ratio.unwrap_or(0.45)
+    }
+
+    /// Motor voltage at rated speed (V).
+    pub fn rated_voltage(&self) -> f64 {
+        self.rated_voltage_v.unwrap_or(380.0)
+    }
+
+    /// Typical floor height (m).
+    pub fn floor_height(&self) -> f64 {
+        self.floor_height_m.unwrap_or(3.0)
+    }
+
+    /// Expected unbalanced mass with an empty car, Δm = −q·M_r (kg).
+    pub fn expected_delta_m(&self) -> f64 {
+        -self.counterweight_ratio() * self.rated_load_kg
+    }
+
+    /// Expected moving mass M0 with an empty car, rotating inertia included (kg):
+    /// car + counterweight + ropes and sheave as about 15 % of those.
+    pub fn expected_m0(&self) -> f64 {
+        let car = self.car_mass();
+        let cw = car + self.counterweight_ratio() * self.rated_load_kg;
+        1.15 * (car + cw)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rated_values_alone_are_enough() {
+        let e = Elevator::from_toml_str("rated_load_kg = 1000.0\nrated_speed_mps = 1.75\nfloors = 26\n").unwrap();
+        assert_eq!(e.floors, 26);
+        assert!((e.expected_delta_m() + 450.0).abs() < 1e-9);
+        assert_eq!(Elevator::from_toml_str(&e.to_toml_string()).unwrap(), e);
+    }
+
+    #[test]
+    fn missing_or_implausible_values_are_refused() {
+        assert!(Elevator::from_toml_str("rated_load_kg = 1000.0\nfloors = 26\n").unwrap_err().contains("rated_speed_mps"));
+        let err = Elevator::from_toml_str("rated_load_kg = -5.0\nrated_speed_mps = 1.0\nfloors = 8\n").unwrap_err();
+        assert!(err.contains("rated_load_kg"), "{err}");
+        assert!(Elevator::from_toml_str("rated_load_kg = 1000.0\nrated_speed_mps = 1.0\nfloors = 8\nspeed = 3\n").is_err());
+    }
+}

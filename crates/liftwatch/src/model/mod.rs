@@ -1,0 +1,78 @@
+//! Stage 4: the hybrid model, physics plus a correcting network (paper, Sec. 3.2-3.3).
+//!
+//! ```text
+//! U_pred = U_phys(v, λ, a; θ) + δU(x)
+//! F_pred = F_phys(v, λ, a; θ) + δF(x)
+//! ```
+//!
+//! [`physics`] holds θ and the equations, [`net`] the network, [`train`] the fit,
+//! [`file`] the versioned model file that `monitor` reads.
+
+pub mod net;
+pub mod physics;
+
+use serde::{Deserialize, Serialize};
+
+use crate::elevator::Elevator;
+use crate::features::{FeatureConfig, FeatureRow};
+use crate::risk::RiskConfig;
+
+pub use net::ResidualNet;
+pub use physics::PhysParams;
+
+/// Version of the model file this build writes and reads.
+pub const FORMAT_VERSION: u32 = 1;
+
+/// Healthy residual scales σ_U, σ_F from the fit: they make the residuals dimensionless.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ResidualScales {
+    /// σ_U: robust standard deviation of r_U on healthy moving samples (V).
+    pub sigma_u_v: f64,
+    /// σ_F: robust standard deviation of r_F on healthy moving samples (N).
+    pub sigma_f_n: f64,
+}
+
+/// What the hybrid model predicts for one sample.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Prediction {
+    /// U_pred: predicted motor voltage (V).
+    pub u_pred: f64,
+    /// F_pred: predicted driving force (N).
+    pub f_pred: f64,
+    /// F_U: the force the measured voltage implies (N); NaN at rest or without voltage.
+    pub f_u: f64,
+}
+
+/// Everything `monitor` needs, as written by `fit` (DATA.md §5).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FittedModel {
+    /// Format version, [`FORMAT_VERSION`] when written by this build.
+    pub format_version: u32,
+    /// The elevator description the model was fitted for.
+    pub elevator: Elevator,
+    /// Identified physical parameters θ.
+    pub parameters: PhysParams,
+    /// The correcting network.
+    pub net: ResidualNet,
+    /// Healthy residual scales.
+    pub scales: ResidualScales,
+    /// Feature settings, including the load-cell gain fitted on the training data.
+    pub features: FeatureConfig,
+    /// Risk settings, calibrated on the healthy residuals of the fit.
+    pub risk: RiskConfig,
+}
+
+impl FittedModel {
+    /// Predicts voltage and force for one feature row and the force implied by its voltage.
+    pub fn predict(&self, x: &FeatureRow) -> Prediction {
+        let p = &self.parameters;
+        let m_r = self.elevator.rated_load_kg;
+        let [du, df] = self.net.forward(x.v, x.lambda, x.a);
+        let f_phys = p.force(x.s, x.v, x.lambda, x.a, m_r);
+        Prediction {
+            u_pred: p.voltage(x.s, x.v, f_phys) + du,
+            f_pred: f_phys + df,
+            f_u: p.force_from_voltage(x.s, x.v, x.voltage),
+        }
+    }
+}

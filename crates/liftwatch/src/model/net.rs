@@ -1,0 +1,177 @@
+//! The correcting network of the hybrid model (paper, Sec. 3.2): a 3-16-16-2 tanh MLP.
+//!
+//! ```text
+//! x  = (v / v_rated, λ, a / 1 m/s²)
+//! h1 = tanh(W1·x + b1)        16
+//! h2 = tanh(W2·h1 + b2)       16
+//! y  = W3·h2 + b3             2
+//! δU = y0 · scale_u,  δF = y1 · scale_f
+//! ```
+//!
+//! Written by hand: 370 weights are far below the size where a tensor library pays for its
+//! per-operation overhead and its compile time; forward and backward are checked against
+//! central differences in the tests below.
+
+use serde::{Deserialize, Serialize};
+
+use crate::rng::Rng;
+
+/// Inputs of the network.
+pub const N_IN: usize = 3;
+/// Units in each hidden layer.
+pub const N_HID: usize = 16;
+/// Outputs of the network.
+pub const N_OUT: usize = 2;
+/// Number of weights and biases.
+pub const N_WEIGHTS: usize = N_HID * N_IN + N_HID + N_HID * N_HID + N_HID + N_OUT * N_HID + N_OUT;
+
+// Offsets of the blocks in the flat weight vector.
+const W1: usize = 0;
+const B1: usize = W1 + N_HID * N_IN;
+const W2: usize = B1 + N_HID;
+const B2: usize = W2 + N_HID * N_HID;
+const W3: usize = B2 + N_HID;
+const B3: usize = W3 + N_OUT * N_HID;
+
+/// The residual network δ(x) = (δU, δF) with its fixed input and output scaling.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ResidualNet {
+    /// Flat weights: W1 (16×3, row-major), b1, W2 (16×16), b2, W3 (2×16), b3.
+    pub weights: Vec<f64>,
+    /// Divisors of the inputs (v, λ, a) before the first layer.
+    pub input_scale: [f64; N_IN],
+    /// Multipliers of the outputs: δU in V and δF in N per unit of network output.
+    pub output_scale: [f64; N_OUT],
+}
+
+/// Activations kept from a forward pass for the backward pass.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct NetCache {
+    x: [f64; N_IN],
+    h1: [f64; N_HID],
+    h2: [f64; N_HID],
+}
+
+impl ResidualNet {
+    /// A network with Glorot-uniform hidden weights and a zero last layer, so that it starts
+    /// as no correction at all and the physics alone explains the data at the first step.
+    pub fn new(seed: u64, input_scale: [f64; N_IN], output_scale: [f64; N_OUT]) -> Self {
+        let mut rng = Rng::new(seed);
+        let mut weights = vec![0.0; N_WEIGHTS];
+        let lim1 = (6.0 / (N_IN + N_HID) as f64).sqrt();
+        let lim2 = (6.0 / (2 * N_HID) as f64).sqrt();
+        for w in &mut weights[W1..B1] {
+            *w = rng.uniform(-lim1, lim1);
+        }
+        for w in &mut weights[W2..B2] {
+            *w = rng.uniform(-lim2, lim2);
+        }
+        ResidualNet { weights, input_scale, output_scale }
+    }
+
+    /// δ(x) = (δU in V, δF in N) for the raw inputs (v, λ, a).
+    pub fn forward(&self, v: f64, lambda: f64, a: f64) -> [f64; N_OUT] {
+        let mut cache = NetCache::default();
+        let y = forward_raw(&self.weights, self.scaled(v, lambda, a), &mut cache);
+        [y[0] * self.output_scale[0], y[1] * self.output_scale[1]]
+    }
+
+    /// Inputs divided by their scales.
+    pub fn scaled(&self, v: f64, lambda: f64, a: f64) -> [f64; N_IN] {
+        [v / self.input_scale[0], lambda / self.input_scale[1], a / self.input_scale[2]]
+    }
+}
+
+/// Forward pass on scaled inputs with explicit weights; returns the unscaled outputs y.
+pub fn forward_raw(w: &[f64], x: [f64; N_IN], cache: &mut NetCache) -> [f64; N_OUT] {
+    cache.x = x;
+    for j in 0..N_HID {
+        let r = &w[W1 + j * N_IN..W1 + (j + 1) * N_IN];
+        cache.h1[j] = (w[B1 + j] + r[0] * x[0] + r[1] * x[1] + r[2] * x[2]).tanh();
+    }
+    for j in 0..N_HID {
+        let r = &w[W2 + j * N_HID..W2 + (j + 1) * N_HID];
+        let z: f64 = r.iter().zip(&cache.h1).map(|(a, b)| a * b).sum();
+        cache.h2[j] = (w[B2 + j] + z).tanh();
+    }
+    let mut y = [0.0; N_OUT];
+    for (k, yk) in y.iter_mut().enumerate() {
+        let r = &w[W3 + k * N_HID..W3 + (k + 1) * N_HID];
+        *yk = w[B3 + k] + r.iter().zip(&cache.h2).map(|(a, b)| a * b).sum::<f64>();
+    }
+    y
+}
+
+/// Backward pass: adds dL/dw to `grad` for the output sensitivity `dy` = dL/dy.
+pub fn backward_raw(w: &[f64], cache: &NetCache, dy: [f64; N_OUT], grad: &mut [f64]) {
+    let mut dh2 = [0.0; N_HID];
+    for (k, &d) in dy.iter().enumerate() {
+        if d == 0.0 {
+            continue;
+        }
+        grad[B3 + k] += d;
+        for j in 0..N_HID {
+            grad[W3 + k * N_HID + j] += d * cache.h2[j];
+            dh2[j] += d * w[W3 + k * N_HID + j];
+        }
+    }
+    let mut dh1 = [0.0; N_HID];
+    for j in 0..N_HID {
+        let dz = dh2[j] * (1.0 - cache.h2[j] * cache.h2[j]);
+        if dz == 0.0 {
+            continue;
+        }
+        grad[B2 + j] += dz;
+        let row = W2 + j * N_HID;
+        for i in 0..N_HID {
+            grad[row + i] += dz * cache.h1[i];
+            dh1[i] += dz * w[row + i];
+        }
+    }
+    for j in 0..N_HID {
+        let dz = dh1[j] * (1.0 - cache.h1[j] * cache.h1[j]);
+        grad[B1 + j] += dz;
+        for i in 0..N_IN {
+            grad[W1 + j * N_IN + i] += dz * cache.x[i];
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn has_the_papers_370_weights() {
+        assert_eq!(N_WEIGHTS, 370);
+    }
+
+    #[test]
+    fn a_new_network_corrects_nothing() {
+        let net = ResidualNet::new(7, [1.75, 1.0, 1.0], [5.0, 500.0]);
+        assert_eq!(net.forward(1.2, 0.3, -0.5), [0.0, 0.0]);
+    }
+
+    #[test]
+    fn backward_matches_central_differences() {
+        let mut rng = Rng::new(3);
+        let w: Vec<f64> = (0..N_WEIGHTS).map(|_| rng.uniform(-0.8, 0.8)).collect();
+        let x = [0.7, 0.2, -0.4];
+        let dy = [0.3, -1.1];
+        let loss = |w: &[f64]| {
+            let y = forward_raw(w, x, &mut NetCache::default());
+            dy[0] * y[0] + dy[1] * y[1]
+        };
+        let mut cache = NetCache::default();
+        forward_raw(&w, x, &mut cache);
+        let mut grad = vec![0.0; N_WEIGHTS];
+        backward_raw(&w, &cache, dy, &mut grad);
+        for i in 0..N_WEIGHTS {
+            let (mut wp, mut wm) = (w.clone(), w.clone());
+            wp[i] += 1e-6;
+            wm[i] -= 1e-6;
+            let num = (loss(&wp) - loss(&wm)) / 2e-6;
+            assert!((num - grad[i]).abs() < 1e-7 * (1.0 + num.abs()), "weight {i}: {num} vs {}", grad[i]);
+        }
+    }
+}

@@ -1,0 +1,129 @@
+//! The electromechanical model of drive and car (paper, Sec. 2.1-2.2; MODEL.md).
+//!
+//! ```text
+//! m_eq  = Δm + λ·M_r                 M_tot = M0 + λ·M_r
+//! F     = M_tot·a + m_eq·g + F_c·s + c·v
+//! U     = U0 + Ke·|v| + φ(s)·Kd·F·s  φ(+1) = 1, φ(−1) = α_down, φ(0) = 0
+//! F_U   = (U − U0 − Ke·|v|) / (φ(s)·Kd·s)   the force the measured voltage implies
+//! ```
+
+use serde::{Deserialize, Serialize};
+
+use crate::elevator::{Elevator, G};
+
+/// Number of physical parameters θ.
+pub const N_PHYS: usize = 8;
+
+/// Physical parameters θ of drive and car (paper, Sec. 2).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PhysParams {
+    /// Δm: unbalanced mass with an empty car, car minus counterweight (kg); may be negative.
+    pub delta_m: f64,
+    /// M0: moving mass with an empty car, rotating inertia as equivalent mass (kg).
+    pub m0: f64,
+    /// F_c: Coulomb friction and brake drag, lumped (N).
+    pub f_c: f64,
+    /// c: viscous friction coefficient (N·s/m).
+    pub c_visc: f64,
+    /// Kd = R/Kt: electromechanical drive coefficient (V/N).
+    pub kd: f64,
+    /// Ke: back-EMF coefficient (V·s/m).
+    pub ke: f64,
+    /// U0: base voltage, what the drive shows at standstill (V).
+    pub u0: f64,
+    /// α_down: directional response of the resistive term in downward travel (1).
+    pub alpha_down: f64,
+}
+
+impl PhysParams {
+    /// Parameter names in the order of [`PhysParams::to_array`], as in the model file.
+    pub const NAMES: [&'static str; N_PHYS] = ["delta_m", "m0", "f_c", "c_visc", "kd", "ke", "u0", "alpha_down"];
+    /// Units, in the same order.
+    pub const UNITS: [&'static str; N_PHYS] = ["kg", "kg", "N", "N s/m", "V/N", "V s/m", "V", "1"];
+
+    /// The parameters as an array in the order of [`PhysParams::NAMES`].
+    pub fn to_array(&self) -> [f64; N_PHYS] {
+        [self.delta_m, self.m0, self.f_c, self.c_visc, self.kd, self.ke, self.u0, self.alpha_down]
+    }
+
+    /// The parameters from an array in the order of [`PhysParams::NAMES`].
+    pub fn from_array(a: [f64; N_PHYS]) -> Self {
+        PhysParams { delta_m: a[0], m0: a[1], f_c: a[2], c_visc: a[3], kd: a[4], ke: a[5], u0: a[6], alpha_down: a[7] }
+    }
+
+    /// Plausible values for an elevator known only by its description: the centres of the priors.
+    pub fn prior_centre(e: &Elevator) -> Self {
+        let m_r = e.rated_load_kg;
+        let v_r = e.rated_speed_mps;
+        let u_r = e.rated_voltage();
+        // Friction about 1.5 % of the suspended weight of car and rated load.
+        let f_c = 0.015 * (e.car_mass() + m_r) * G;
+        // Resistive drop about 7 % of rated voltage at the full-load motoring force.
+        let kd = 0.07 * u_r / ((1.0 - e.counterweight_ratio()) * m_r * G);
+        PhysParams {
+            delta_m: e.expected_delta_m(),
+            m0: e.expected_m0(),
+            f_c,
+            c_visc: 0.5 * f_c / v_r,
+            kd,
+            ke: 0.85 * u_r / v_r,
+            u0: 0.02 * u_r,
+            alpha_down: 1.0,
+        }
+    }
+
+    /// φ(s): the directional response, 1 up, α_down down, 0 at rest.
+    pub fn phi(&self, s: i8) -> f64 {
+        match s {
+            1 => 1.0,
+            -1 => self.alpha_down,
+            _ => 0.0,
+        }
+    }
+
+    /// F: driving force on the car side (N, + up) that the dynamics require.
+    pub fn force(&self, s: i8, v: f64, lambda: f64, a: f64, rated_load_kg: f64) -> f64 {
+        let m_tot = self.m0 + lambda * rated_load_kg;
+        let m_eq = self.delta_m + lambda * rated_load_kg;
+        m_tot * a + m_eq * G + self.f_c * f64::from(s) + self.c_visc * v
+    }
+
+    /// U: motor voltage magnitude (V) for a driving force `force`.
+    pub fn voltage(&self, s: i8, v: f64, force: f64) -> f64 {
+        self.u0 + self.ke * v.abs() + self.phi(s) * self.kd * force * f64::from(s)
+    }
+
+    /// F_U: the force (N) that a measured voltage implies through the motor model; NaN at rest.
+    pub fn force_from_voltage(&self, s: i8, v: f64, voltage: f64) -> f64 {
+        if s == 0 {
+            return f64::NAN;
+        }
+        (voltage - self.u0 - self.ke * v.abs()) / (self.phi(s) * self.kd * f64::from(s))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn voltage_and_implied_force_are_inverse() {
+        let p = PhysParams::prior_centre(&Elevator::new(1000.0, 1.75, 26));
+        for (s, v, lam, a) in [(1, 1.7, 0.3, 0.2), (-1, -1.2, 0.05, -0.4), (1, 0.3, 0.9, 0.8)] {
+            let f = p.force(s, v, lam, a, 1000.0);
+            let u = p.voltage(s, v, f);
+            assert!((p.force_from_voltage(s, v, u) - f).abs() < 1e-6 * f.abs().max(1.0));
+        }
+        assert!(p.force_from_voltage(0, 0.0, 10.0).is_nan());
+    }
+
+    #[test]
+    fn an_empty_car_going_up_regenerates() {
+        // The counterweight outweighs an empty car: lifting it takes negative force, and the
+        // resistive term lowers the voltage below the back-EMF line.
+        let p = PhysParams::prior_centre(&Elevator::new(1000.0, 1.75, 26));
+        let f = p.force(1, 1.75, 0.0, 0.0, 1000.0);
+        assert!(f < 0.0);
+        assert!(p.voltage(1, 1.75, f) < p.u0 + p.ke * 1.75);
+    }
+}

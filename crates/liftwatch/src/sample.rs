@@ -1,0 +1,73 @@
+//! The unit that flows between stages: one aligned sample of all signals.
+//!
+//! Missing values are `NaN`: an aligned file's empty field, a gap longer than the
+//! alignment limit, a sensor that dropped out. Every later stage checks with
+//! [`f64::is_finite`] before using a field.
+
+use serde::{Deserialize, Serialize};
+
+/// Signals of one aligned instant (DATA.md §2). `NaN` marks a missing value.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Sample {
+    /// Time (s).
+    pub time: f64,
+    /// Car speed magnitude from the encoder (m/s, >= 0).
+    pub speed: f64,
+    /// Travel direction from the controller: 1 up, -1 down, 0 none.
+    pub direction: f64,
+    /// Traction motor voltage magnitude (V).
+    pub voltage: f64,
+    /// Load-weighing sensor, tare removed (percent of rated load).
+    pub load: f64,
+    /// Door: 1 open or opening, 0 closed.
+    pub door: f64,
+    /// Floor indicator, 1-based.
+    pub floor: f64,
+    /// Motor current (A), usually absent.
+    pub current: f64,
+}
+
+impl Sample {
+    /// A sample at `time` with every signal missing.
+    pub fn missing(time: f64) -> Self {
+        Sample {
+            time,
+            speed: f64::NAN,
+            direction: f64::NAN,
+            voltage: f64::NAN,
+            load: f64::NAN,
+            door: f64::NAN,
+            floor: f64::NAN,
+            current: f64::NAN,
+        }
+    }
+}
+
+/// A uniformly stepped series of samples (DATA.md §2): the output of alignment.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct AlignedSeries {
+    /// The uniform step (s).
+    pub step_s: f64,
+    /// The samples, in time order, `step_s` apart.
+    pub samples: Vec<Sample>,
+}
+
+impl AlignedSeries {
+    /// Number of samples.
+    pub fn len(&self) -> usize {
+        self.samples.len()
+    }
+
+    /// True when there is no sample.
+    pub fn is_empty(&self) -> bool {
+        self.samples.is_empty()
+    }
+
+    /// Duration covered (s), zero for fewer than two samples.
+    pub fn duration_s(&self) -> f64 {
+        match (self.samples.first(), self.samples.last()) {
+            (Some(a), Some(b)) => b.time - a.time,
+            _ => 0.0,
+        }
+    }
+}

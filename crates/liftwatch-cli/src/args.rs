@@ -1,8 +1,8 @@
-//! Command-line arguments (DATA.md §6).
-
-use std::path::PathBuf;
+//! Command-line arguments (DATA.md §6). Each verb's flags live in its own `cmd/<verb>.rs`.
 
 use clap::{Parser, Subcommand};
+
+use crate::cmd;
 
 /// Physics-informed health monitoring of traction elevators.
 #[derive(Debug, Parser)]
@@ -16,23 +16,12 @@ pub struct Args {
 /// The subcommands.
 #[derive(Debug, Subcommand)]
 pub enum Command {
+    /// Simulate a traction elevator and write its raw telemetry, aligned series and truth.
+    Simulate(cmd::simulate::Args),
     /// Align raw `time,signal,value` telemetry to a uniform step.
-    Align(AlignArgs),
-}
-
-/// `liftwatch align`.
-#[derive(Debug, clap::Args)]
-pub struct AlignArgs {
-    /// Raw telemetry (or an aligned file, which is re-stepped).
-    #[arg(long)]
-    pub input: PathBuf,
-    /// Where to write the aligned series.
-    #[arg(long)]
-    pub out: PathBuf,
-    /// Uniform step (s).
-    #[arg(long, default_value_t = 1.0)]
-    pub step: f64,
-    /// Longest gap (s) that is interpolated or held; longer gaps stay empty.
-    #[arg(long, default_value_t = 5.0)]
-    pub gap_limit: f64,
+    Align(cmd::align::Args),
+    /// Fit the hybrid physics + network model on healthy data.
+    Fit(cmd::fit::Args),
+    /// Watch telemetry with a fitted model: residuals, risk, levels, events.
+    Monitor(cmd::monitor::Args),
 }

@@ -1,8 +1,16 @@
-//! `liftwatch align`: raw telemetry → aligned series.
+//! `liftwatch align` (in progress).
 
-use crate::args::AlignArgs;
+use std::path::PathBuf;
+
+/// Flags of `liftwatch align`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Input file.
+    #[arg(long)]
+    pub input: Option<PathBuf>,
+}
 
 /// Runs `align`.
-pub fn run(args: AlignArgs) -> anyhow::Result<()> {
-    anyhow::bail!("align is not built yet ({})", args.input.display())
+pub fn run(_args: Args) -> anyhow::Result<()> {
+    anyhow::bail!("align is not built yet")
 }

@@ -1,12 +1,18 @@
 //! One file per subcommand; each `run()` reads as its slice of the pipeline.
 
-mod align;
+pub mod align;
+pub mod fit;
+pub mod monitor;
+pub mod simulate;
 
 use crate::args::{Args, Command};
 
 /// Runs the chosen subcommand.
 pub fn run(args: Args) -> anyhow::Result<()> {
     match args.command {
+        Command::Simulate(a) => simulate::run(a),
         Command::Align(a) => align::run(a),
+        Command::Fit(a) => fit::run(a),
+        Command::Monitor(a) => monitor::run(a),
     }
 }

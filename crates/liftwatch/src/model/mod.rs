@@ -8,6 +8,7 @@
 //! [`physics`] holds θ and the equations, [`net`] the network, [`train`] the fit,
 //! [`file`] the versioned model file that `monitor` reads.
 
+pub mod loss;
 pub mod net;
 pub mod physics;
 

@@ -11,6 +11,7 @@
 pub mod loss;
 pub mod net;
 pub mod physics;
+pub mod train;
 
 use serde::{Deserialize, Serialize};
 

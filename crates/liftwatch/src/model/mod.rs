@@ -8,6 +8,7 @@
 //! [`physics`] holds θ and the equations, [`net`] the network, [`train`] the fit,
 //! [`file`] the versioned model file that `monitor` reads.
 
+pub mod file;
 pub mod loss;
 pub mod net;
 pub mod physics;
@@ -21,6 +22,7 @@ use crate::risk::RiskConfig;
 
 pub use net::ResidualNet;
 pub use physics::PhysParams;
+pub use train::{FitSummary, TrainConfig};
 
 /// Version of the model file this build writes and reads.
 pub const FORMAT_VERSION: u32 = 1;
@@ -62,6 +64,10 @@ pub struct FittedModel {
     pub features: FeatureConfig,
     /// Risk settings, calibrated on the healthy residuals of the fit.
     pub risk: RiskConfig,
+    /// The settings the model was trained with.
+    pub train: TrainConfig,
+    /// Standard errors, training history and warnings of the fit.
+    pub fit: FitSummary,
 }
 
 impl FittedModel {

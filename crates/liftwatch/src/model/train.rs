@@ -144,7 +144,7 @@ pub struct ParamReport {
 }
 
 /// Everything the fit found besides the model itself.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct FitSummary {
     /// Moving samples used.
     pub moving_samples: usize,

@@ -1,0 +1,172 @@
+//! Stage 1, time stamps: numeric seconds or RFC 3339, both turned into f64 seconds
+//! (paper, Sec. 4.1, "inconsistencies in ... timestamps and data formats").
+//!
+//! ```text
+//! t = number                      "1709280000.25", "12.5" (seconds since any epoch)
+//! t = unix(RFC 3339 instant)      "2026-03-01T08:00:00.250Z", "2026-03-01T09:00:00+01:00"
+//! accepted only if |t| <= MAX_ABS_TIME_S
+//! ```
+//!
+//! One file uses one form: the first row with a readable time fixes it ([`TimeForm`]),
+//! and a later row of the other form is a bad row.
+//!
+//! Deviation from the paper: the paper does not say how time stamps are written; the
+//! accepted range is ours. ±1e10 s (±317 years) covers Unix seconds of the years 1653
+//! to 2286 and any relative clock, keeps f64 resolution finer than 2 µs, and turns
+//! logger garbage such as `1e300` or `inf` into bad rows instead of a grid of 1e300 steps.
+
+use time::format_description::well_known::Rfc3339;
+use time::OffsetDateTime;
+
+/// Largest accepted |time| (s): ±317 years around the epoch.
+pub const MAX_ABS_TIME_S: f64 = 1.0e10;
+
+/// How the time column of one file is written.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TimeForm {
+    /// A number of seconds since any epoch, fractional allowed.
+    Seconds,
+    /// An RFC 3339 instant, converted to seconds since the Unix epoch.
+    Rfc3339,
+}
+
+impl TimeForm {
+    /// Name used in messages.
+    pub fn name(self) -> &'static str {
+        match self {
+            TimeForm::Seconds => "numeric seconds",
+            TimeForm::Rfc3339 => "RFC 3339",
+        }
+    }
+}
+
+/// Why a time field was refused.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TimeError {
+    /// Neither a number nor an RFC 3339 instant.
+    Unreadable,
+    /// Readable, but of the other form than the file's.
+    OtherForm(TimeForm),
+    /// Readable, but not finite or outside ±[`MAX_ABS_TIME_S`].
+    OutOfRange,
+}
+
+/// Parses seconds: a finite number within the accepted range.
+pub fn parse_seconds(s: &str) -> Result<f64, TimeError> {
+    // `f64::from_str` also reads "inf" and "NaN"; they fall out by the range test.
+    let t: f64 = s.parse().map_err(|_| TimeError::Unreadable)?;
+    check_range(t)
+}
+
+/// Parses an RFC 3339 instant into seconds since the Unix epoch (with the fraction).
+pub fn parse_rfc3339(s: &str) -> Result<f64, TimeError> {
+    let dt = OffsetDateTime::parse(s, &Rfc3339).map_err(|_| TimeError::Unreadable)?;
+    let whole = dt.unix_timestamp() as f64;
+    let frac = f64::from(dt.nanosecond()) * 1e-9;
+    check_range(whole + frac)
+}
+
+fn check_range(t: f64) -> Result<f64, TimeError> {
+    if t.is_finite() && t.abs() <= MAX_ABS_TIME_S {
+        Ok(t)
+    } else {
+        Err(TimeError::OutOfRange)
+    }
+}
+
+/// Reads a time field of a file whose form may not be known yet.
+///
+/// With `form == None` the field decides the form (a number first, then RFC 3339) and
+/// the chosen form is stored in `form`; an unreadable field leaves it undecided.
+pub fn parse_time(s: &str, form: &mut Option<TimeForm>) -> Result<f64, TimeError> {
+    match *form {
+        Some(TimeForm::Seconds) => match parse_seconds(s) {
+            Err(TimeError::Unreadable) if parse_rfc3339(s).is_ok() => {
+                Err(TimeError::OtherForm(TimeForm::Rfc3339))
+            }
+            r => r,
+        },
+        Some(TimeForm::Rfc3339) => match parse_rfc3339(s) {
+            Err(TimeError::Unreadable) if s.parse::<f64>().is_ok() => {
+                Err(TimeError::OtherForm(TimeForm::Seconds))
+            }
+            r => r,
+        },
+        None => {
+            if s.parse::<f64>().is_ok() {
+                *form = Some(TimeForm::Seconds);
+                parse_seconds(s)
+            } else if OffsetDateTime::parse(s, &Rfc3339).is_ok() {
+                *form = Some(TimeForm::Rfc3339);
+                parse_rfc3339(s)
+            } else {
+                Err(TimeError::Unreadable)
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn numeric_seconds_keep_their_fraction() {
+        assert_eq!(parse_seconds("12.25"), Ok(12.25));
+        assert_eq!(parse_seconds("-3"), Ok(-3.0));
+        assert_eq!(parse_seconds("1709280000.5"), Ok(1_709_280_000.5));
+        assert_eq!(parse_seconds("1e3"), Ok(1000.0));
+    }
+
+    #[test]
+    fn absurd_and_non_finite_times_are_out_of_range() {
+        for s in ["1e300", "-1e300", "inf", "-inf", "NaN", "1e11"] {
+            assert_eq!(parse_seconds(s), Err(TimeError::OutOfRange), "{s}");
+        }
+        assert_eq!(parse_seconds("12:00"), Err(TimeError::Unreadable));
+        assert_eq!(parse_seconds(""), Err(TimeError::Unreadable));
+    }
+
+    #[test]
+    fn rfc3339_utc_is_unix_seconds() {
+        // 2026-03-01T00:00:00Z: 20513 days after 1970-01-01.
+        let day = 20_513.0 * 86_400.0;
+        assert_eq!(parse_rfc3339("2026-03-01T00:00:00Z"), Ok(day));
+        assert_eq!(
+            parse_rfc3339("2026-03-01T08:00:00.250Z"),
+            Ok(day + 8.0 * 3600.0 + 0.25)
+        );
+        assert_eq!(parse_rfc3339("1970-01-01T00:00:01Z"), Ok(1.0));
+    }
+
+    #[test]
+    fn rfc3339_offsets_name_the_same_instant() {
+        let z = parse_rfc3339("2026-03-01T08:00:00Z").unwrap();
+        assert_eq!(parse_rfc3339("2026-03-01T09:00:00+01:00"), Ok(z));
+        assert_eq!(parse_rfc3339("2026-03-01T02:30:00-05:30"), Ok(z));
+        let frac = parse_rfc3339("2026-03-01T09:00:00.125+01:00").unwrap();
+        assert!((frac - z - 0.125).abs() < 1e-6);
+    }
+
+    #[test]
+    fn first_readable_time_fixes_the_form() {
+        let mut form = None;
+        assert_eq!(parse_time("garbage", &mut form), Err(TimeError::Unreadable));
+        assert_eq!(form, None);
+        assert_eq!(parse_time("2026-03-01T00:00:00Z", &mut form).is_ok(), true);
+        assert_eq!(form, Some(TimeForm::Rfc3339));
+        assert_eq!(
+            parse_time("12.5", &mut form),
+            Err(TimeError::OtherForm(TimeForm::Seconds))
+        );
+
+        let mut form = None;
+        assert_eq!(parse_time("12.5", &mut form), Ok(12.5));
+        assert_eq!(form, Some(TimeForm::Seconds));
+        assert_eq!(
+            parse_time("2026-03-01T00:00:00Z", &mut form),
+            Err(TimeError::OtherForm(TimeForm::Rfc3339))
+        );
+        assert_eq!(parse_time("1e300", &mut form), Err(TimeError::OutOfRange));
+    }
+}

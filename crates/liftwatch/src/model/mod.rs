@@ -16,9 +16,12 @@ pub mod train;
 
 use serde::{Deserialize, Serialize};
 
+use crate::baseline::BaselineLimits;
 use crate::elevator::Elevator;
-use crate::features::{FeatureConfig, FeatureRow};
-use crate::risk::RiskConfig;
+use crate::error::Result;
+use crate::features::{FeatureConfig, FeatureRow, Features};
+use crate::risk::{CalibrationSettings, RiskConfig, TripEvidence};
+use crate::sample::AlignedSeries;
 
 pub use net::ResidualNet;
 pub use physics::PhysParams;
@@ -83,4 +86,57 @@ impl FittedModel {
             f_u: p.force_from_voltage(x.s, x.v, x.voltage),
         }
     }
+}
+
+/// Everything `fit` produces: the model, and the intermediate results a report shows.
+#[derive(Clone, Debug)]
+pub struct FitOutcome {
+    /// The fitted, calibrated model.
+    pub model: FittedModel,
+    /// Features of the training data (with the fitted load-cell gain).
+    pub features: Features,
+    /// Per-trip evidence of the training data, on which the risk was calibrated.
+    pub healthy_trips: Vec<TripEvidence>,
+}
+
+/// Margin of the fixed-threshold baseline above the healthy extremes (fraction).
+pub const BASELINE_MARGIN: f64 = 0.10;
+
+/// The whole identification: features (with the load-cell gain fitted on this history),
+/// the hybrid model, healthy residual scales, the baseline's limits and the calibration of the
+/// risk thresholds on the healthy trips.
+///
+/// `observer` sees each logged training point (progress, plots).
+///
+/// # Errors
+/// [`Error::TooLittleMotion`](crate::Error::TooLittleMotion) and
+/// [`Error::Unidentifiable`](crate::Error::Unidentifiable) when the data cannot determine the
+/// model or calibrate the risk; [`Error::InvalidConfig`](crate::Error::InvalidConfig) for bad settings.
+pub fn fit(
+    series: &AlignedSeries,
+    elevator: &Elevator,
+    cfg: &TrainConfig,
+    observer: &mut dyn FnMut(&train::TrainPoint),
+) -> Result<FitOutcome> {
+    let feature_cfg = crate::features::fit_load_cell(series, &FeatureConfig::for_elevator(elevator))?;
+    let features = crate::features::extract(series, &feature_cfg);
+    let (obs, _, n_rest) = train::observations(&features.rows, cfg.standstill_share)?;
+    let trained = train::train(&obs, elevator, cfg, observer)?;
+    let mut summary = trained.summary;
+    summary.standstill_samples = n_rest;
+    let mut model = FittedModel {
+        format_version: FORMAT_VERSION,
+        elevator: elevator.clone(),
+        parameters: trained.parameters,
+        net: trained.net,
+        scales: trained.scales,
+        features: feature_cfg,
+        risk: RiskConfig::default(),
+        train: cfg.clone(),
+        fit: summary,
+    };
+    let limits = BaselineLimits::calibrate(&model, &features.rows, BASELINE_MARGIN)?;
+    let healthy_trips = crate::risk::trip_evidence(&model, &features.rows);
+    model.risk = RiskConfig::calibrate(&healthy_trips, limits, &CalibrationSettings::default())?;
+    Ok(FitOutcome { model, features, healthy_trips })
 }

@@ -28,10 +28,16 @@
 //! acceleration plateau) but blurred at the jerk corners of starting and braking, where the
 //! instantaneous load-cell reading is the better witness. The defaults of
 //! [`FeatureConfig::for_elevator`] therefore weigh the speed path more while cruising
-//! (β = 0.95) and the load path more while accelerating or decelerating (β = 0.3). On the
-//! jerk-limited S-curve test of this module (speed noise 0.005 m/s, load noise 0.5 % of rated
-//! load) this gives an RMS error about 40 % below the speed path alone, against under 10 % for
-//! the paper's weighting (β 0.8 transient, 0.3 cruise); the test prints all three figures.
+//! (β = 0.95) and the load path more while accelerating or decelerating (β = 0.3).
+//!
+//! Deviation from the paper: β also follows the load. The cell's noise is a fixed share of the
+//! rated load, so a_L is noisier the lighter the car (σ_L ∝ 1/(λ + p)); the configured β hold at
+//! half load and [`FeatureConfig::beta`] rescales them as inverse-variance weights. On the
+//! jerk-limited S-curve test of this module (6 × 8 trips, speed noise 0.005 m/s, load noise
+//! 0.5 % of rated load) the RMS error against the true acceleration over moving samples is
+//! 0.108 m/s² for the speed path, 0.119 for the load path, 0.068 fused with these defaults,
+//! 0.099 with the paper's phase weighting (β 0.8 transient, 0.3 cruise) and 0.085 with its
+//! fixed β = 0.7.
 //!
 //! Deviation from the paper: the paper's "smoothing" of Δv/Δt is the central difference itself
 //! (a 2Δt box filter on a); no causal smoother is added on top because it would delay a_v
@@ -68,6 +74,9 @@ const L_REF_WINDOW: f64 = 30.0;
 /// A direction signal seen this recently (s) still tells the sign of a start without one.
 const DIR_MEMORY_S: f64 = 5.0;
 
+/// The load ratio λ at which the configured β apply; see [`FeatureConfig::beta`].
+pub const BETA_REF_LAMBDA: f64 = 0.5;
+
 /// Settings of feature extraction; saved in the model file.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct FeatureConfig {
@@ -77,9 +86,10 @@ pub struct FeatureConfig {
     pub moving_threshold_mps: f64,
     /// p of the load-cell path: platform and sling mass felt by the cell, as a fraction of M_r.
     pub load_cell_platform_ratio: f64,
-    /// β while starting or braking (speed path weight).
+    /// β while starting or braking (speed path weight), at the reference load
+    /// [`BETA_REF_LAMBDA`]; [`FeatureConfig::beta`] scales it with the load.
     pub beta_transient: f64,
-    /// β while cruising or at rest.
+    /// β while cruising or at rest, at the reference load, scaled likewise.
     pub beta_cruise: f64,
 }
 
@@ -124,12 +134,26 @@ impl FeatureConfig {
         check("beta_cruise", self.beta_cruise, 0.0, 1.0)
     }
 
-    /// β for a phase of travel: the weight of the speed path in the fused acceleration.
-    pub fn beta(&self, phase: Phase) -> f64 {
-        match phase {
+    /// β for a phase of travel and a load ratio λ: the weight of the speed path in the fused
+    /// acceleration.
+    ///
+    /// The configured β holds at the reference load [`BETA_REF_LAMBDA`]. The load cell's noise is
+    /// a fixed share of the rated load, so the noise of a_L scales as 1/(λ + p); read as an
+    /// inverse-variance weight, β = σ_L²/(σ_L² + σ_v²), the configured value fixes the ratio
+    /// σ_v/σ_L at the reference load and the weight at λ follows:
+    /// `β(λ) = 1 / (1 + (1/β_ref − 1)·((λ + p)/(λ_ref + p))²)`. β = 0 and β = 1 stay fixed;
+    /// without λ the configured value is used.
+    pub fn beta(&self, phase: Phase, lambda: f64) -> f64 {
+        let beta_ref = match phase {
             Phase::Accelerating | Phase::Decelerating => self.beta_transient,
             Phase::Cruising | Phase::Standstill => self.beta_cruise,
+        };
+        if !lambda.is_finite() || beta_ref <= 0.0 || beta_ref >= 1.0 {
+            return beta_ref;
         }
+        let p = self.load_cell_platform_ratio;
+        let scale = (lambda + p) / (BETA_REF_LAMBDA + p);
+        1.0 / (1.0 + (1.0 / beta_ref - 1.0) * scale * scale)
     }
 }
 
@@ -561,7 +585,7 @@ impl FeatureTracker {
         } else if phase == Phase::Standstill {
             0.0
         } else {
-            let beta = self.cfg.beta(phase);
+            let beta = self.cfg.beta(phase, lambda);
             match (a_v.is_finite(), a_l.is_finite()) {
                 (true, true) => beta * a_v + (1.0 - beta) * a_l,
                 (true, false) => a_v,
@@ -711,11 +735,12 @@ const FIT_MIN_MOVING_S: f64 = 60.0;
 ///
 /// Segments run between points where the acceleration is about zero: the standstills around a
 /// complete trip and its cruising samples; S is the trapezoid sum of the 1 Hz readings.
-/// Deviation from the brief's pointwise regression `(L − L_ref)·g/100 − a_v·λ = a_v·p`: a_v is
-/// the 2 s mean of the acceleration, L a point reading; regressing one on the other biased p
-/// by +65 % on jerk-limited trips (prototype), while the integrals of both sides over whole
-/// acceleration and braking phases agree to about 1 % (bias on p about −5 %, measured in the
-/// tests).
+/// The standstill rows count with their own reading: the car may creep below the motion
+/// threshold there. Deviation from a pointwise regression `(L − L_ref)·g/100 − a_v·λ = a_v·p`:
+/// a_v is the 2 s mean of the acceleration, L a point reading, and regressing one on the other
+/// biased p by +65 % on jerk-limited trips (prototype); the integrals of both sides over whole
+/// acceleration and braking phases agree, and p comes back within about ±0.005 from 40 trips
+/// (measured in the tests).
 ///
 /// # Errors
 /// [`Error::InvalidConfig`] for invalid settings; [`Error::TooLittleMotion`] when fewer than
@@ -733,14 +758,8 @@ pub fn fit_load_cell(series: &AlignedSeries, cfg: &FeatureConfig) -> Result<Feat
         .filter(|w| w[1].s != 0 && (0.0..=MAX_STEP_S).contains(&(w[1].time - w[0].time)))
         .map(|w| w[1].time - w[0].time)
         .sum();
-    // z = g·(L − L_ref)/100 of a row, recovered from a_L; 0 at the standstills.
-    let z = |r: &FeatureRow| {
-        if r.s == 0 {
-            0.0
-        } else {
-            r.a_l * (r.lambda + p_now)
-        }
-    };
+    // z = g·(L − L_ref)/100 of a moving row, recovered exactly from a_L.
+    let z_moving = |r: &FeatureRow| r.a_l * (r.lambda + p_now);
     let (mut num, mut den, mut used_trips) = (0.0, 0.0, 0usize);
     let mut i = 1;
     while i < rows.len() {
@@ -769,6 +788,31 @@ pub fn fit_load_cell(series: &AlignedSeries, cfg: &FeatureConfig) -> Result<Feat
             }))
             .chain(std::iter::once(end + 1))
             .collect();
+        // z over the trip and its two standstills. At a standstill row the car may already
+        // (or still) be creeping below the threshold: its reading counts too, against the
+        // trip's L_ref recovered from a moving row; a standstill without a door-closed reading
+        // counts as a = 0.
+        let l_ref = (start + 1..=end)
+            .find(|&j| rows[j].a_l.is_finite())
+            .map_or(f64::NAN, |j| {
+                series.samples[j].load - 100.0 * z_moving(&rows[j]) / G
+            });
+        let z_rest = |j: usize| {
+            let x = &series.samples[j];
+            let z = G * (x.load - l_ref) / 100.0;
+            if x.door <= 0.5 && z.is_finite() && z.abs() <= A_L_MAX_MPS2 {
+                z
+            } else {
+                0.0
+            }
+        };
+        let z = |j: usize| {
+            if rows[j].s == 0 {
+                z_rest(j)
+            } else {
+                z_moving(&rows[j])
+            }
+        };
         let mut used = false;
         for w in anchors.windows(2) {
             let (a, b) = (w[0], w[1]);
@@ -776,13 +820,11 @@ pub fn fit_load_cell(series: &AlignedSeries, cfg: &FeatureConfig) -> Result<Feat
             if dv.abs() < SEGMENT_MIN_DV_MPS || !lambda.is_finite() {
                 continue;
             }
-            let seg = &rows[a..=b];
-            if seg.iter().any(|r| r.s != 0 && !r.a_l.is_finite()) {
+            if rows[a..=b].iter().any(|r| r.s != 0 && !r.a_l.is_finite()) {
                 continue;
             }
-            let s_int: f64 = seg
-                .windows(2)
-                .map(|q| 0.5 * (z(&q[0]) + z(&q[1])) * (q[1].time - q[0].time))
+            let s_int: f64 = (a..b)
+                .map(|j| 0.5 * (z(j) + z(j + 1)) * (rows[j + 1].time - rows[j].time))
                 .sum();
             let y = s_int - lambda * dv;
             num += dv * y;
@@ -985,35 +1027,42 @@ mod tests {
     #[test]
     fn fused_acceleration_beats_the_speed_path_on_an_s_curve() {
         let cfg = config();
-        let paper = FeatureConfig {
-            beta_transient: 0.8,
-            beta_cruise: 0.3,
-            ..cfg.clone()
+        // The paper's weighting, fixed β not scaled with the load: 0.8 starting and braking,
+        // 0.3 cruising; and its single fixed β = 0.7.
+        let paper = |r: &FeatureRow, beta_t: f64, beta_c: f64| {
+            let beta = if r.phase == Phase::Cruising {
+                beta_c
+            } else {
+                beta_t
+            };
+            beta * r.a_v + (1.0 - beta) * r.a_l
         };
-        let (mut e_v, mut e_f, mut e_p, mut e_l) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        let mut e: [Vec<f64>; 5] = Default::default();
         for seed in 1..=6 {
             let d = day(&LEGS, cfg.load_cell_platform_ratio, seed);
-            let ours = extract(&d.series, &cfg).rows;
-            let theirs = extract(&d.series, &paper).rows;
-            for ((r, q), a) in ours.iter().zip(&theirs).zip(&d.a_true) {
+            for (r, a) in extract(&d.series, &cfg).rows.iter().zip(&d.a_true) {
                 if r.s != 0 && r.a_l.is_finite() {
-                    e_v.push(r.a_v - a);
-                    e_f.push(r.a - a);
-                    e_p.push(q.a - a);
-                    e_l.push(r.a_l - a);
+                    for (k, x) in [r.a_v, r.a_l, r.a, paper(r, 0.8, 0.3), paper(r, 0.7, 0.7)]
+                        .into_iter()
+                        .enumerate()
+                    {
+                        e[k].push(x - a);
+                    }
                 }
             }
         }
-        let (rv, rf, rp, rl) = (
-            rms(e_v.into_iter()),
-            rms(e_f.into_iter()),
-            rms(e_p.into_iter()),
-            rms(e_l.into_iter()),
+        let [rv, rl, rf, rp, r7] = e.map(|e| rms(e.into_iter()));
+        // Measured (seeds 1-6, 8 trips each): speed path 0.108 m/s², load path 0.119, fused
+        // 0.068, paper's phase β 0.099, paper's fixed β = 0.7 0.085.
+        println!(
+            "rms error of a (m/s²) over moving samples: speed path {rv:.4}, load path {rl:.4}, fused {rf:.4}, \
+             paper's phase β (0.8/0.3) {rp:.4}, paper's fixed β 0.7 {r7:.4}"
         );
-        // Measured: speed path 0.10 m/s², load path 0.11, fused (defaults) 0.06, paper's β 0.10.
-        println!("rms error of a (m/s²) over moving samples: speed path {rv:.4}, load path {rl:.4}, fused {rf:.4}, fused with the paper's β {rp:.4}");
         assert!(rf < rv, "fused {rf} should beat the speed path {rv}");
-        assert!(rf < rp, "the default β {rf} should beat the paper's β {rp}");
+        assert!(
+            rf < rp && rf < r7,
+            "the default β {rf} should beat the paper's {rp} and {r7}"
+        );
     }
 
     #[test]
@@ -1045,11 +1094,11 @@ mod tests {
         );
     }
 
-    #[test]
-    fn fit_load_cell_recovers_a_known_platform_ratio() {
-        let mut rng = Rng::new(11);
-        let (p_true, mut floor) = (0.3, 1u32);
-        let legs: Vec<(u32, f64)> = (0..40)
+    /// `n` legs between random floors of a 20-floor building with random loads.
+    fn random_legs(n: usize, seed: u64) -> Vec<(u32, f64)> {
+        let mut rng = Rng::new(seed);
+        let mut floor = 1u32;
+        (0..n)
             .map(|_| {
                 let mut to = floor;
                 while to == floor {
@@ -1058,19 +1107,31 @@ mod tests {
                 floor = to;
                 (to, rng.uniform(0.0, 0.9))
             })
-            .collect();
-        let d = day(&legs, p_true, 12);
-        let fitted = fit_load_cell(&d.series, &config()).expect("40 trips are enough");
-        let p = fitted.load_cell_platform_ratio;
-        println!(
-            "load-cell platform ratio: true {p_true}, fitted {p:.4} ({:+.1} %)",
-            100.0 * (p / p_true - 1.0)
-        );
-        assert!(
-            (p / p_true - 1.0).abs() < 0.1,
-            "fitted p {p} should be within 10 % of {p_true}"
-        );
-        assert_eq!(fitted.beta_cruise, config().beta_cruise);
+            .collect()
+    }
+
+    #[test]
+    fn fit_load_cell_recovers_a_known_platform_ratio() {
+        // Measured on 6 seeds of 40 trips: within −7 % to +3 % for p = 0.15, −4 % to +1 % for
+        // 0.3 and 0.6 (an absolute error of about 0.005).
+        for (p_true, seed) in [(0.15, 101), (0.3, 102), (0.6, 103)] {
+            let d = day(&random_legs(40, seed), p_true, seed);
+            let start = FeatureConfig {
+                load_cell_platform_ratio: 0.4,
+                ..config()
+            };
+            let fitted = fit_load_cell(&d.series, &start).expect("40 trips are enough");
+            let p = fitted.load_cell_platform_ratio;
+            println!(
+                "load-cell platform ratio: true {p_true}, fitted {p:.4} ({:+.1} %)",
+                100.0 * (p / p_true - 1.0)
+            );
+            assert!(
+                (p / p_true - 1.0).abs() < 0.1,
+                "fitted p {p} should be within 10 % of {p_true}"
+            );
+            assert_eq!(fitted.beta_cruise, start.beta_cruise);
+        }
     }
 
     #[test]

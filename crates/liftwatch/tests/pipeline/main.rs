@@ -1,1 +1,2 @@
 //! Integration tests of the pipeline, one module per stage.
+mod sim;

@@ -1,0 +1,478 @@
+//! Simulator: sensor clocks, dropouts and the control-cabinet logger that writes raw telemetry
+//! (DATA.md §1) and the simulator's own aligned series (DATA.md §2).
+//!
+//! ```text
+//! sample k of a signal:  t_k = t_0 + φ + k·P·(1 + ppm·1e-6) + clamp(N(0, σ_j), ±0.2 s)
+//! dropouts:               Poisson, `dropouts_per_day` per signal, each silent for 1-15 min
+//! logging order:          rows are buffered per signal and flushed every 1-4 s, one signal after
+//!                         the other, so rows of different signals are mildly out of order
+//! ```
+//!
+//! Each signal has its own clock (phase φ uniform in one period, a rate error of up to ±100
+//! ppm, jitter of tens of ms), like a logger that polls independent devices. About one row in
+//! 50 000 is repeated, as a logger that re-sends after a timeout does.
+
+use std::fs::File;
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
+
+use crate::error::{Error, Result};
+use crate::rng::Rng;
+
+use super::TruthRow;
+
+/// The logged signals (DATA.md §1; the optional `current` is not simulated).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Signal {
+    /// Car speed magnitude (m/s).
+    Speed,
+    /// Travel direction: 1 up, −1 down, 0 none.
+    Direction,
+    /// Motor voltage magnitude (V).
+    Voltage,
+    /// Load-weighing sensor (% of rated load).
+    Load,
+    /// Door: 1 open or moving, 0 closed.
+    Door,
+    /// Floor indicator, 1-based.
+    Floor,
+}
+
+impl Signal {
+    /// Every signal, in the order used by per-signal arrays and by the logger.
+    pub const ALL: [Signal; 6] = [
+        Signal::Speed,
+        Signal::Direction,
+        Signal::Voltage,
+        Signal::Load,
+        Signal::Door,
+        Signal::Floor,
+    ];
+
+    /// The signal's name in the raw file.
+    pub fn name(self) -> &'static str {
+        match self {
+            Signal::Speed => "speed",
+            Signal::Direction => "direction",
+            Signal::Voltage => "voltage",
+            Signal::Load => "load",
+            Signal::Door => "door",
+            Signal::Floor => "floor",
+        }
+    }
+
+    /// Index in [`Signal::ALL`].
+    pub fn index(self) -> usize {
+        self as usize
+    }
+
+    /// Decimals written for a value of this signal (enough for its quantisation step).
+    pub fn decimals(self) -> usize {
+        match self {
+            Signal::Speed => 3,
+            Signal::Voltage => 2,
+            Signal::Load => 1,
+            Signal::Direction | Signal::Door | Signal::Floor => 0,
+        }
+    }
+}
+
+/// One raw telemetry row: `time,signal,value`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RawRow {
+    /// Sampling instant (s).
+    pub time: f64,
+    /// Which signal.
+    pub signal: Signal,
+    /// The reading.
+    pub value: f64,
+}
+
+/// Silent intervals of one sensor, drawn as a Poisson process; queried with rising times.
+#[derive(Clone, Debug)]
+pub(crate) struct Dropouts {
+    rng: Rng,
+    rate_per_s: f64,
+    start: f64,
+    end: f64,
+}
+
+impl Dropouts {
+    pub(crate) fn new(mut rng: Rng, per_day: f64, from: f64) -> Self {
+        let rate_per_s = per_day.max(0.0) / 86_400.0;
+        let (start, end) = Self::draw(&mut rng, rate_per_s, from);
+        Dropouts {
+            rng,
+            rate_per_s,
+            start,
+            end,
+        }
+    }
+
+    fn draw(rng: &mut Rng, rate: f64, from: f64) -> (f64, f64) {
+        if rate <= 0.0 {
+            return (f64::INFINITY, f64::INFINITY);
+        }
+        let start = from + rng.exponential(1.0 / rate);
+        (start, start + rng.uniform(60.0, 900.0))
+    }
+
+    /// True when the sensor is silent at `t` (times must not go backwards by more than jitter).
+    pub(crate) fn silent(&mut self, t: f64) -> bool {
+        while t >= self.end {
+            let (s, e) = Self::draw(&mut self.rng, self.rate_per_s, self.end);
+            self.start = s;
+            self.end = e;
+        }
+        t >= self.start
+    }
+}
+
+/// The sampling clock of one sensor.
+#[derive(Clone, Debug)]
+pub(crate) struct SensorClock {
+    rng: Rng,
+    origin: f64,
+    period: f64,
+    jitter_s: f64,
+    k: u64,
+    /// The next sampling instant (s).
+    pub(crate) next: f64,
+    /// When this sensor is silent.
+    pub(crate) dropouts: Dropouts,
+}
+
+impl SensorClock {
+    pub(crate) fn new(
+        mut rng: Rng,
+        start: f64,
+        ppm: f64,
+        jitter_s: f64,
+        dropouts_per_day: f64,
+    ) -> Self {
+        let origin = start + rng.uniform(0.0, 1.0);
+        let dropouts = Dropouts::new(rng.fork(), dropouts_per_day, start);
+        let mut c = SensorClock {
+            rng,
+            origin,
+            period: 1.0 + ppm * 1e-6,
+            jitter_s,
+            k: 0,
+            next: 0.0,
+            dropouts,
+        };
+        c.next = c.instant();
+        c
+    }
+
+    fn instant(&mut self) -> f64 {
+        let j = (self.jitter_s * self.rng.normal()).clamp(-0.2, 0.2);
+        (self.origin + self.k as f64 * self.period + j).max(self.next)
+    }
+
+    /// Moves to the following sampling instant.
+    pub(crate) fn advance(&mut self) {
+        self.k += 1;
+        self.next = self.instant();
+    }
+}
+
+/// Buffers rows per signal and releases them in bursts, one signal after another.
+#[derive(Clone, Debug)]
+pub(crate) struct RawLogger {
+    rng: Rng,
+    buffers: [Vec<RawRow>; 6],
+    next_flush: f64,
+}
+
+impl RawLogger {
+    pub(crate) fn new(mut rng: Rng, start: f64) -> Self {
+        let next_flush = start + rng.uniform(1.0, 4.0);
+        RawLogger {
+            rng,
+            buffers: Default::default(),
+            next_flush,
+        }
+    }
+
+    pub(crate) fn push(&mut self, row: RawRow) {
+        let b = &mut self.buffers[row.signal.index()];
+        b.push(row);
+        if self.rng.chance(2e-5) {
+            b.push(row);
+        }
+    }
+
+    /// Releases every burst due by time `t` to `out`.
+    pub(crate) fn flush_until(
+        &mut self,
+        t: f64,
+        out: &mut impl FnMut(RawRow) -> Result<()>,
+    ) -> Result<()> {
+        while self.next_flush <= t {
+            let cut = self.next_flush;
+            for b in &mut self.buffers {
+                let n = b.partition_point(|r| r.time < cut);
+                for r in b.drain(..n) {
+                    out(r)?;
+                }
+            }
+            self.next_flush += self.rng.uniform(1.0, 4.0);
+        }
+        Ok(())
+    }
+
+    /// Releases everything still buffered.
+    pub(crate) fn flush_all(&mut self, out: &mut impl FnMut(RawRow) -> Result<()>) -> Result<()> {
+        for b in &mut self.buffers {
+            for r in b.drain(..) {
+                out(r)?;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Writes `raw.csv` (DATA.md §1): `time,signal,value`, numeric seconds, in logging order.
+pub struct RawCsvWriter {
+    path: PathBuf,
+    out: BufWriter<File>,
+    /// Rows written so far.
+    pub rows: u64,
+}
+
+impl RawCsvWriter {
+    /// Creates the file and writes the header.
+    ///
+    /// # Errors
+    /// [`Error::Io`] when the file cannot be created or written.
+    pub fn create(path: &Path) -> Result<Self> {
+        let file = File::create(path).map_err(|e| Error::io(path, e))?;
+        let mut out = BufWriter::with_capacity(1 << 20, file);
+        out.write_all(b"time,signal,value\n")
+            .map_err(|e| Error::io(path, e))?;
+        Ok(RawCsvWriter {
+            path: path.into(),
+            out,
+            rows: 0,
+        })
+    }
+
+    /// Writes one row; a non-finite value is written as an empty field.
+    ///
+    /// # Errors
+    /// [`Error::Io`] when writing fails.
+    pub fn write(&mut self, r: &RawRow) -> Result<()> {
+        let res = if r.value.is_finite() {
+            writeln!(
+                self.out,
+                "{:.3},{},{:.*}",
+                r.time,
+                r.signal.name(),
+                r.signal.decimals(),
+                r.value
+            )
+        } else {
+            writeln!(self.out, "{:.3},{},", r.time, r.signal.name())
+        };
+        res.map_err(|e| Error::io(&self.path, e))?;
+        self.rows += 1;
+        Ok(())
+    }
+
+    /// Flushes the file.
+    ///
+    /// # Errors
+    /// [`Error::Io`] when flushing fails.
+    pub fn finish(mut self) -> Result<u64> {
+        self.out.flush().map_err(|e| Error::io(&self.path, e))?;
+        Ok(self.rows)
+    }
+}
+
+/// Columns of `aligned.csv`: DATA.md §2 then the simulator's truth.
+pub const ALIGNED_HEADER: [&str; 15] = [
+    "time",
+    "speed",
+    "direction",
+    "voltage",
+    "load",
+    "door",
+    "floor",
+    "v_true",
+    "accel_true",
+    "pos_true",
+    "load_true",
+    "force_true",
+    "voltage_true",
+    "kd_true",
+    "severity",
+];
+
+/// Writes `aligned.csv`: the DATA.md §2 columns, empty where missing, then the truth columns.
+pub struct AlignedCsvWriter {
+    path: PathBuf,
+    out: csv::Writer<BufWriter<File>>,
+    buf: String,
+    /// Rows written so far.
+    pub rows: u64,
+}
+
+impl AlignedCsvWriter {
+    /// Creates the file and writes the header [`ALIGNED_HEADER`].
+    ///
+    /// # Errors
+    /// [`Error::Io`] when the file cannot be created or written.
+    pub fn create(path: &Path) -> Result<Self> {
+        let file = File::create(path).map_err(|e| Error::io(path, e))?;
+        let mut out = csv::Writer::from_writer(BufWriter::with_capacity(1 << 20, file));
+        out.write_record(ALIGNED_HEADER)
+            .map_err(|e| csv_error(path, e))?;
+        Ok(AlignedCsvWriter {
+            path: path.into(),
+            out,
+            buf: String::with_capacity(32),
+            rows: 0,
+        })
+    }
+
+    /// Writes one row.
+    ///
+    /// # Errors
+    /// [`Error::Io`] when writing fails.
+    pub fn write(&mut self, r: &TruthRow) -> Result<()> {
+        use std::fmt::Write as _;
+        let s = &r.sample;
+        let fields: [(f64, usize); 15] = [
+            (s.time, 1),
+            (s.speed, 3),
+            (s.direction, 0),
+            (s.voltage, 2),
+            (s.load, 1),
+            (s.door, 0),
+            (s.floor, 0),
+            (r.v_true, 4),
+            (r.accel_true, 4),
+            (r.pos_true, 3),
+            (r.load_true, 4),
+            (r.force_true, 1),
+            (r.voltage_true, 3),
+            (r.kd_true, 7),
+            (r.severity, 4),
+        ];
+        for (v, dec) in fields {
+            self.buf.clear();
+            if v.is_finite() {
+                write!(self.buf, "{v:.dec$}").expect("writing to a String cannot fail");
+            }
+            self.out
+                .write_field(&self.buf)
+                .map_err(|e| csv_error(&self.path, e))?;
+        }
+        self.out
+            .write_record(None::<&[u8]>)
+            .map_err(|e| csv_error(&self.path, e))?;
+        self.rows += 1;
+        Ok(())
+    }
+
+    /// Flushes the file.
+    ///
+    /// # Errors
+    /// [`Error::Io`] when flushing fails.
+    pub fn finish(mut self) -> Result<u64> {
+        self.out.flush().map_err(|e| Error::io(&self.path, e))?;
+        Ok(self.rows)
+    }
+}
+
+fn csv_error(path: &Path, e: csv::Error) -> Error {
+    Error::io(path, std::io::Error::other(e.to_string()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn clock_ticks_about_once_a_second_in_order() {
+        let mut c = SensorClock::new(Rng::new(1), 100.0, 50.0, 0.03, 0.0);
+        let first = c.next;
+        assert!((100.0..101.2).contains(&first));
+        let mut prev = first;
+        for _ in 0..1000 {
+            c.advance();
+            assert!(
+                c.next >= prev && c.next - prev < 1.5,
+                "{prev} -> {}",
+                c.next
+            );
+            prev = c.next;
+        }
+        assert!(((prev - first) / 1000.0 - 1.0).abs() < 1e-3);
+    }
+
+    #[test]
+    fn dropouts_last_minutes_and_come_at_the_declared_rate() {
+        let mut d = Dropouts::new(Rng::new(2), 4.0, 0.0);
+        let days = 50.0;
+        let (mut silent_s, mut starts, mut was) = (0.0, 0, false);
+        let mut t = 0.0;
+        while t < days * 86_400.0 {
+            let s = d.silent(t);
+            silent_s += if s { 1.0 } else { 0.0 };
+            starts += usize::from(s && !was);
+            was = s;
+            t += 1.0;
+        }
+        let per_day = starts as f64 / days;
+        assert!((2.5..5.5).contains(&per_day), "{per_day}");
+        let mean_len = silent_s / starts as f64;
+        assert!((300.0..700.0).contains(&mean_len), "{mean_len}");
+    }
+
+    #[test]
+    fn logger_keeps_each_signal_in_order_and_disorder_bounded() {
+        let mut l = RawLogger::new(Rng::new(4), 0.0);
+        let mut out = Vec::new();
+        for k in 0..300 {
+            for s in Signal::ALL {
+                l.push(RawRow {
+                    time: f64::from(k) + 0.1 * s.index() as f64,
+                    signal: s,
+                    value: 0.0,
+                });
+            }
+            l.flush_until(f64::from(k) + 1.0, &mut |r| {
+                out.push(r);
+                Ok(())
+            })
+            .unwrap();
+        }
+        l.flush_all(&mut |r| {
+            out.push(r);
+            Ok(())
+        })
+        .unwrap();
+        assert!(out.len() >= 1800);
+        let mut max_back = 0.0f64;
+        let mut latest = f64::NEG_INFINITY;
+        for s in Signal::ALL {
+            let times: Vec<f64> = out
+                .iter()
+                .filter(|r| r.signal == s)
+                .map(|r| r.time)
+                .collect();
+            assert!(times.windows(2).all(|w| w[0] <= w[1]));
+        }
+        for r in &out {
+            max_back = max_back.max(latest - r.time);
+            latest = latest.max(r.time);
+        }
+        assert!(
+            max_back > 0.0,
+            "rows of different signals interleave out of order"
+        );
+        assert!(max_back < 4.5, "{max_back}");
+    }
+}

@@ -1,1 +1,315 @@
-//! (in progress)
+//! Stage 7: levels, events and fault-mode attribution (paper, Sec. 4.3 and 5.3; DATA.md §4).
+//!
+//! ```text
+//! normal   → advisory   when R ≥ advisory          (schedule maintenance / inspect)
+//! advisory → alarm      when R ≥ alarm             (intervention advised)
+//! alarm    → advisory   when R < ρ·alarm           ρ = release ratio, e.g. 0.5
+//! advisory → normal     when R < ρ·advisory
+//! sensor:  advisory while the data, not the machine, look wrong
+//! mode  = argmax_m R_m / A_m  when it exceeds the runner-up by the dominance factor, else unknown
+//! ```
+//!
+//! The hysteresis band keeps a level from flickering while R hovers at a threshold: R decays
+//! by γ per trip, so leaving a level takes a sustained return to healthy behaviour.
+//!
+//! Deviation from the paper: the paper leaves the warning rule open; here the thresholds are
+//! calibrated to a stated false-alarm rate (see [`crate::risk::RiskConfig::calibrate`]).
+//!
+//! Acknowledgement: accumulated evidence is never reset by hand. After an inspection or a
+//! repair the operator refits on fresh healthy data; the new model file carries a new
+//! identity, so monitor states of the old model are refused and monitoring starts at R = 0
+//! from the new healthy reference. A reset without a refit would only rebuild the same risk
+//! from the same unrepaired drift.
+
+use serde::{Deserialize, Serialize};
+
+use crate::risk::{RiskConfig, TripAssessment, BRAKE, FRICTION, MOTOR, N_MODES};
+
+/// Health level of the elevator (DATA.md §4).
+#[derive(
+    Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize,
+)]
+#[serde(rename_all = "lowercase")]
+pub enum Level {
+    /// Consistent with the healthy reference.
+    #[default]
+    Normal,
+    /// Schedule maintenance or an inspection.
+    Advisory,
+    /// Intervention advised.
+    Alarm,
+}
+
+impl Level {
+    /// The name written in CSV and JSON.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Level::Normal => "normal",
+            Level::Advisory => "advisory",
+            Level::Alarm => "alarm",
+        }
+    }
+}
+
+impl std::fmt::Display for Level {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+/// What the evidence points at (DATA.md §4).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum FaultMode {
+    /// Drive degradation: Kd up, a load-proportional voltage rise.
+    Motor,
+    /// Brake drag: a voltage rise going down or decelerating only.
+    Brake,
+    /// Guide-rail or lubrication degradation: more force in both directions.
+    Friction,
+    /// The data, not the machine, look wrong.
+    Sensor,
+    /// No mode clearly dominates.
+    Unknown,
+}
+
+impl FaultMode {
+    /// The name written in JSON.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            FaultMode::Motor => "motor",
+            FaultMode::Brake => "brake",
+            FaultMode::Friction => "friction",
+            FaultMode::Sensor => "sensor",
+            FaultMode::Unknown => "unknown",
+        }
+    }
+}
+
+/// The evidence behind an event, written beside the DATA.md §4 fields.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Evidence {
+    /// Per-mode risk of the motor.
+    pub risk_motor: f64,
+    /// Per-mode risk of the brake.
+    pub risk_brake: f64,
+    /// Per-mode risk of friction.
+    pub risk_friction: f64,
+    /// Re-identified change of Kd (percent), NaN (null) before the regression is determined.
+    pub kd_drift_pct: f64,
+    /// Its standard error (percent).
+    pub kd_drift_se_pct: f64,
+    /// Re-identified change of friction F_c, c (percent).
+    pub friction_drift_pct: f64,
+    /// Its standard error (percent).
+    pub friction_drift_se_pct: f64,
+    /// Re-identified brake drag (N).
+    pub brake_drag_n: f64,
+    /// Its standard error (N).
+    pub brake_drag_se_n: f64,
+    /// Trips taken as machine evidence so far.
+    pub trips: u64,
+    /// Trips refused as sensor-implausible so far.
+    pub implausible_trips: u64,
+}
+
+impl Evidence {
+    /// The evidence of a tracker's latest assessment; `f_c` turns the brake coefficient into N.
+    pub fn from_assessment(
+        a: &TripAssessment,
+        f_c: f64,
+        trips: u64,
+        implausible_trips: u64,
+    ) -> Self {
+        Evidence {
+            risk_motor: a.risk_modes[MOTOR],
+            risk_brake: a.risk_modes[BRAKE],
+            risk_friction: a.risk_modes[FRICTION],
+            kd_drift_pct: 100.0 * a.drift[MOTOR],
+            kd_drift_se_pct: 100.0 * a.drift_se[MOTOR],
+            friction_drift_pct: 100.0 * a.drift[FRICTION],
+            friction_drift_se_pct: 100.0 * a.drift_se[FRICTION],
+            brake_drag_n: f_c * a.drift[BRAKE],
+            brake_drag_se_n: f_c * a.drift_se[BRAKE],
+            trips,
+            implausible_trips,
+        }
+    }
+}
+
+/// A change of level (DATA.md §4), one JSON line in the events file.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Event {
+    /// Time of the sample at which the level changed (s).
+    pub time: f64,
+    /// The new level.
+    pub level: Level,
+    /// What the evidence points at.
+    pub mode: FaultMode,
+    /// Combined risk at the change.
+    pub risk: f64,
+    /// Supporting figures.
+    #[serde(flatten)]
+    pub evidence: Evidence,
+}
+
+impl Event {
+    /// The event as one JSON line without the newline; non-finite numbers become `null`.
+    pub fn to_json_line(&self) -> String {
+        serde_json::to_string(self).expect("an event of numbers and names always serialises")
+    }
+}
+
+/// The level logic with hysteresis, and the sensor override.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct AlarmState {
+    machine: Level,
+    sensor: bool,
+}
+
+impl AlarmState {
+    /// The level from machine evidence alone.
+    pub fn machine_level(&self) -> Level {
+        self.machine
+    }
+
+    /// The reported level: the machine level, raised to advisory while a sensor looks wrong.
+    pub fn level(&self) -> Level {
+        if self.sensor {
+            self.machine.max(Level::Advisory)
+        } else {
+            self.machine
+        }
+    }
+
+    /// True while the sensor override is active.
+    pub fn sensor(&self) -> bool {
+        self.sensor
+    }
+
+    /// Moves the machine level with hysteresis for combined risk `risk`.
+    pub fn update_machine(&mut self, risk: f64, cfg: &RiskConfig) {
+        let rho = cfg.release_ratio;
+        self.machine = match self.machine {
+            _ if risk >= cfg.alarm => Level::Alarm,
+            Level::Alarm if risk >= rho * cfg.alarm => Level::Alarm,
+            _ if risk >= cfg.advisory => Level::Advisory,
+            Level::Alarm | Level::Advisory if risk >= rho * cfg.advisory => Level::Advisory,
+            _ => Level::Normal,
+        };
+    }
+
+    /// Sets the sensor override.
+    pub fn set_sensor(&mut self, active: bool) {
+        self.sensor = active;
+    }
+}
+
+/// The fault mode the per-mode risks point at: the largest scaled risk R_m/A_m when it
+/// exceeds the runner-up by `dominance`, `Unknown` otherwise.
+pub fn attribute(risk_modes: &[f64; N_MODES], cfg: &RiskConfig) -> FaultMode {
+    let q: Vec<f64> = (0..N_MODES)
+        .map(|m| risk_modes[m] / cfg.advisory_modes[m].max(f64::MIN_POSITIVE))
+        .collect();
+    let mut order = [MOTOR, BRAKE, FRICTION];
+    order.sort_by(|a, b| q[*b].total_cmp(&q[*a]));
+    let (best, second) = (q[order[0]], q[order[1]]);
+    if !(best > 0.0) || best < cfg.dominance * second {
+        return FaultMode::Unknown;
+    }
+    match order[0] {
+        MOTOR => FaultMode::Motor,
+        BRAKE => FaultMode::Brake,
+        _ => FaultMode::Friction,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cfg() -> RiskConfig {
+        RiskConfig {
+            advisory: 100.0,
+            alarm: 400.0,
+            advisory_modes: [100.0; N_MODES],
+            ..RiskConfig::default()
+        }
+    }
+
+    #[test]
+    fn hysteresis_prevents_flicker() {
+        // Risk hovering just around the advisory threshold changes the level once, not at
+        // every crossing.
+        let cfg = cfg();
+        let mut s = AlarmState::default();
+        let mut changes = 0;
+        let mut last = s.level();
+        for k in 0..200 {
+            let risk = 100.0 + if k % 2 == 0 { 5.0 } else { -5.0 };
+            s.update_machine(risk, &cfg);
+            if s.level() != last {
+                changes += 1;
+                last = s.level();
+            }
+        }
+        assert_eq!(changes, 1);
+        assert_eq!(s.level(), Level::Advisory);
+        s.update_machine(49.0, &cfg);
+        assert_eq!(s.level(), Level::Normal, "released below ρ·advisory");
+    }
+
+    #[test]
+    fn alarm_is_left_for_advisory_then_normal() {
+        let cfg = cfg();
+        let mut s = AlarmState::default();
+        s.update_machine(500.0, &cfg);
+        assert_eq!(s.level(), Level::Alarm);
+        s.update_machine(250.0, &cfg);
+        assert_eq!(s.level(), Level::Alarm, "still above ρ·alarm");
+        s.update_machine(150.0, &cfg);
+        assert_eq!(s.level(), Level::Advisory);
+        s.update_machine(10.0, &cfg);
+        assert_eq!(s.level(), Level::Normal);
+    }
+
+    #[test]
+    fn a_sensor_fault_is_an_advisory_without_machine_risk() {
+        let mut s = AlarmState::default();
+        s.set_sensor(true);
+        assert_eq!(
+            (s.level(), s.machine_level()),
+            (Level::Advisory, Level::Normal)
+        );
+    }
+
+    #[test]
+    fn attribution_needs_a_clear_winner() {
+        let cfg = cfg();
+        assert_eq!(attribute(&[300.0, 20.0, 50.0], &cfg), FaultMode::Motor);
+        assert_eq!(attribute(&[300.0, 20.0, 280.0], &cfg), FaultMode::Unknown);
+        assert_eq!(attribute(&[0.0, 0.0, 0.0], &cfg), FaultMode::Unknown);
+        assert_eq!(attribute(&[1.0, 90.0, 5.0], &cfg), FaultMode::Brake);
+    }
+
+    #[test]
+    fn event_is_one_json_line_with_the_contract_fields() {
+        let e = Event {
+            time: 86400.0,
+            level: Level::Advisory,
+            mode: FaultMode::Friction,
+            risk: 412.5,
+            evidence: Evidence::default(),
+        };
+        let line = e.to_json_line();
+        assert!(
+            line.starts_with(
+                r#"{"time":86400.0,"level":"advisory","mode":"friction","risk":412.5,"#
+            ),
+            "{line}"
+        );
+        assert!(!line.contains('\n'));
+        let back: serde_json::Value = serde_json::from_str(&line).unwrap();
+        assert_eq!(back["risk_motor"], 0.0);
+    }
+}

@@ -1,1 +1,777 @@
-//! (in progress)
+//! Stages 3 and 5-7 as one streaming step: aligned sample in, monitor row out (paper, Sec. 4.3).
+//!
+//! ```text
+//! Sample ─ FeatureTracker (lag 1) ─ FeatureRow ─ residuals r_U, r_F ─┬─ row
+//!                                                                    └─ per trip: evidence
+//!        ─ sensor plausibility ─────────────────────── trip verdict ─┴─ RiskTracker ─ AlarmState
+//! ```
+//!
+//! Every caller (CLI, a server, the tests) drives the same [`Monitor::push`], so a batch run is
+//! a loop over the online step and both give the same numbers. [`Method::Threshold`] swaps the
+//! risk stage for the conventional fixed-threshold method of [`crate::baseline`] and keeps the
+//! rows' shape.
+//!
+//! Resume: [`Monitor::state`] captures everything, including the sample whose row still waits
+//! for its successor (the feature tracker's lag) and a trip in progress. A run that saves its
+//! state instead of calling [`Monitor::finish`] and a next run that resumes from it write
+//! exactly the rows one run over both inputs writes. The state records the identity of its
+//! model; a state of another model is refused, which is also how acknowledging an alarm works:
+//! refit, and monitoring starts afresh (see [`crate::alarm`]).
+//!
+//! Sensor plausibility (DATA.md §4 `sensor`): a trip whose speed rose without the floor
+//! indicator changing, that started on another floor than the previous trip ended, that lasted
+//! longer than any healthy trip could (speed stuck), or during which the load reading left its
+//! plausible range is not machine evidence. A load reading bit-identical over many door cycles
+//! (a stuck cell) or a channel missing for long while the others report raises the `sensor`
+//! advisory directly; so does a majority of implausible recent trips.
+
+use std::io::Write;
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use crate::alarm::{attribute, AlarmState, Event, Evidence, FaultMode, Level};
+use crate::baseline::Baseline;
+use crate::error::{Error, Result};
+use crate::features::{FeatureRow, FeatureTracker, Trip};
+use crate::model::FittedModel;
+use crate::residual::{PredictionCache, Residuals};
+use crate::risk::{exact, RiskTracker, TripAccumulator, BRAKE, FRICTION, MOTOR};
+use crate::sample::Sample;
+
+/// Version of the monitor state document.
+pub const STATE_VERSION: u32 = 1;
+
+/// The DATA.md §4 columns, in order, then the extra columns of this build.
+pub const CSV_HEADER: &str =
+    "time,r_voltage,r_force,risk,risk_motor,risk_brake,risk_friction,level,e,kd_drift_pct,friction_drift_pct,brake_drag_n";
+
+/// Which method turns residuals into levels.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Method {
+    /// Dual residuals, time-accumulated risk per fault mode (the paper's method).
+    #[default]
+    Pinn,
+    /// Fixed thresholds on instantaneous signals (the paper's conventional baseline).
+    Threshold,
+}
+
+impl std::str::FromStr for Method {
+    type Err = Error;
+
+    fn from_str(s: &str) -> Result<Self> {
+        match s {
+            "pinn" => Ok(Method::Pinn),
+            "threshold" => Ok(Method::Threshold),
+            _ => Err(Error::InvalidConfig {
+                field: "method",
+                why: format!("`{s}`, expected `pinn` or `threshold`"),
+            }),
+        }
+    }
+}
+
+/// One output row (DATA.md §4). `NaN` marks an empty field.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MonitorRow {
+    /// Time (s).
+    pub time: f64,
+    /// r_U (V).
+    pub r_voltage: f64,
+    /// r_F (N).
+    pub r_force: f64,
+    /// Combined risk (threshold method: alarm state 0/1).
+    pub risk: f64,
+    /// Motor risk (threshold method: voltage limit exceeded 0/1).
+    pub risk_motor: f64,
+    /// Brake risk (threshold method: 0, it has no brake check).
+    pub risk_brake: f64,
+    /// Friction risk (threshold method: friction limit exceeded 0/1).
+    pub risk_friction: f64,
+    /// Level after this sample.
+    pub level: Level,
+    /// Set when the level changed at this sample.
+    pub event: Option<Event>,
+    /// Extra column: combined scaled residual e.
+    pub e: f64,
+    /// Extra column: re-identified Kd change (percent).
+    pub kd_drift_pct: f64,
+    /// Extra column: re-identified friction change (percent).
+    pub friction_drift_pct: f64,
+    /// Extra column: re-identified brake drag (N).
+    pub brake_drag_n: f64,
+}
+
+/// Writes monitor rows as CSV with [`CSV_HEADER`]; empty fields for `NaN`.
+pub struct RowWriter<W: Write> {
+    out: W,
+}
+
+impl<W: Write> RowWriter<W> {
+    /// Writes the header.
+    ///
+    /// # Errors
+    /// The writer's I/O error.
+    pub fn new(mut out: W) -> std::io::Result<Self> {
+        writeln!(out, "{CSV_HEADER}")?;
+        Ok(RowWriter { out })
+    }
+
+    /// Writes one row.
+    ///
+    /// # Errors
+    /// The writer's I/O error.
+    pub fn write(&mut self, r: &MonitorRow) -> std::io::Result<()> {
+        let w = &mut self.out;
+        for x in [
+            r.time,
+            r.r_voltage,
+            r.r_force,
+            r.risk,
+            r.risk_motor,
+            r.risk_brake,
+            r.risk_friction,
+        ] {
+            write_num(w, x)?;
+            w.write_all(b",")?;
+        }
+        w.write_all(r.level.as_str().as_bytes())?;
+        for x in [r.e, r.kd_drift_pct, r.friction_drift_pct, r.brake_drag_n] {
+            w.write_all(b",")?;
+            write_num(w, x)?;
+        }
+        w.write_all(b"\n")
+    }
+
+    /// Flushes and returns the writer.
+    ///
+    /// # Errors
+    /// The writer's I/O error.
+    pub fn into_inner(mut self) -> std::io::Result<W> {
+        self.out.flush()?;
+        Ok(self.out)
+    }
+}
+
+fn write_num<W: Write>(w: &mut W, x: f64) -> std::io::Result<()> {
+    if x.is_finite() {
+        write!(w, "{x}")
+    } else {
+        Ok(())
+    }
+}
+
+/// FNV-1a over the model's JSON: the identity a state records.
+pub fn model_fingerprint(model: &FittedModel) -> String {
+    let json = serde_json::to_vec(model).expect("a model of numbers and names always serialises");
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for b in json {
+        h ^= u64::from(b);
+        h = h.wrapping_mul(0x0000_0100_0000_01b3);
+    }
+    format!("{h:016x}")
+}
+
+/// Sensor plausibility from raw samples and completed trips.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+struct SensorCheck {
+    /// Last time each channel (speed, direction, voltage, load, door, floor) had a value.
+    #[serde(with = "exact::array")]
+    last_seen: [f64; 6],
+    /// A channel has been missing longer than the limit while others report.
+    missing: bool,
+    /// A load reading out of range since the last completed trip.
+    load_out_of_range: bool,
+    /// Door state of the previous sample (NaN unknown) and the load at the last door close.
+    #[serde(with = "exact")]
+    door: f64,
+    #[serde(with = "exact")]
+    close_load: f64,
+    /// Consecutive door cycles with a bit-identical load reading.
+    stuck_cycles: u32,
+    /// Index and arrival floor of the last reported trip.
+    last_trip: Option<(u32, StateF64)>,
+    /// Exponential average of the implausible flag over trips and standstill floor changes.
+    #[serde(with = "exact")]
+    score: f64,
+    /// Since when the speed has been above the motion threshold (NaN when it is not).
+    #[serde(with = "exact")]
+    moving_since: f64,
+    /// Since when the speed has been at or below it (NaN when it is not).
+    #[serde(with = "exact")]
+    still_since: f64,
+    /// Last floor indicator value seen.
+    #[serde(with = "exact")]
+    floor: f64,
+}
+
+/// An f64 that serialises exactly, for tuples.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+struct StateF64(#[serde(with = "exact")] f64);
+
+impl SensorCheck {
+    fn new() -> Self {
+        SensorCheck {
+            last_seen: [f64::NAN; 6],
+            missing: false,
+            load_out_of_range: false,
+            door: f64::NAN,
+            close_load: f64::NAN,
+            stuck_cycles: 0,
+            last_trip: None,
+            score: 0.0,
+            moving_since: f64::NAN,
+            still_since: f64::NAN,
+            floor: f64::NAN,
+        }
+    }
+
+    /// Counts one implausible or plausible observation into the score.
+    fn observe(&mut self, plausible: bool) {
+        self.score = 0.9 * self.score + 0.1 * f64::from(u8::from(!plausible));
+    }
+
+    /// Looks at one raw sample; `thr` is the motion threshold (m/s).
+    fn sample(&mut self, x: &Sample, cfg: &crate::risk::SensorLimits, thr: f64) {
+        if x.speed.is_finite() {
+            if x.speed > thr {
+                self.still_since = f64::NAN;
+                if self.moving_since.is_nan() {
+                    self.moving_since = x.time;
+                }
+            } else {
+                self.moving_since = f64::NAN;
+                if self.still_since.is_nan() {
+                    self.still_since = x.time;
+                }
+            }
+        }
+        if x.floor.is_finite() {
+            // The indicator may settle a few seconds after the car stops; a change after 10 s
+            // of standstill is a floor change without speed (a stuck or dead speed signal).
+            if self.floor.is_finite() && x.floor != self.floor && x.time - self.still_since > 10.0 {
+                self.observe(false);
+            }
+            self.floor = x.floor;
+        }
+        let ch = [x.speed, x.direction, x.voltage, x.load, x.door, x.floor];
+        let any = ch.iter().any(|v| v.is_finite());
+        let mut missing = false;
+        for (seen, v) in self.last_seen.iter_mut().zip(ch) {
+            if v.is_finite() || seen.is_nan() {
+                *seen = x.time;
+            } else if any && x.time - *seen >= cfg.missing_limit_s {
+                missing = true;
+            }
+        }
+        // A gap of every channel is the logger's, not a sensor's: it neither sets nor clears.
+        if any {
+            self.missing = missing;
+        }
+        if x.load.is_finite() && !(cfg.min_load_pct..=cfg.max_load_pct).contains(&x.load) {
+            self.load_out_of_range = true;
+        }
+        if x.door.is_finite() {
+            let closing = self.door > 0.5 && x.door < 0.5;
+            if closing && x.load.is_finite() {
+                if x.load.to_bits() == self.close_load.to_bits() {
+                    self.stuck_cycles = self.stuck_cycles.saturating_add(1);
+                } else {
+                    self.stuck_cycles = 0;
+                }
+                self.close_load = x.load;
+            }
+            self.door = x.door;
+        }
+    }
+
+    /// True while a condition independent of trips says a sensor is broken.
+    fn channel_fault(&self, cfg: &crate::risk::SensorLimits, time: f64) -> bool {
+        let speed_stuck = time - self.moving_since > cfg.max_trip_s;
+        self.missing || speed_stuck || self.stuck_cycles >= cfg.stuck_load_cycles
+    }
+
+    /// Judges a completed trip: true when it is plausible machine evidence.
+    fn trip(&mut self, t: &Trip, cfg: &crate::risk::SensorLimits, floor_height: f64) -> bool {
+        let mut ok = !std::mem::take(&mut self.load_out_of_range);
+        ok &= t.end_time - t.start_time <= cfg.max_trip_s;
+        let floors_known = t.from_floor.is_finite() && t.to_floor.is_finite();
+        if floors_known
+            && t.peak_speed >= cfg.floor_change_speed_mps
+            && t.distance_m >= 0.7 * floor_height
+        {
+            ok &= t.from_floor != t.to_floor;
+        }
+        if let Some((index, StateF64(to))) = self.last_trip {
+            if index.wrapping_add(1) == t.index && to.is_finite() && t.from_floor.is_finite() {
+                ok &= to == t.from_floor;
+            }
+        }
+        self.last_trip = Some((t.index, StateF64(t.to_floor)));
+        self.observe(ok);
+        ok
+    }
+}
+
+/// Everything a monitor carries from one sample to the next; a few KiB as JSON.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct MonitorState {
+    /// [`STATE_VERSION`].
+    pub format_version: u32,
+    /// [`model_fingerprint`] of the model the state belongs to.
+    pub model_id: String,
+    /// The method in use.
+    pub method: Method,
+    features: FeatureTracker,
+    risk: RiskTracker,
+    alarm: AlarmState,
+    trip: TripAccumulator,
+    open_trip: Option<u32>,
+    sensor: SensorCheck,
+    baseline: Baseline,
+    episode_mode: FaultMode,
+    /// Samples seen.
+    pub samples: u64,
+    /// Complete trips seen.
+    pub trips: u64,
+    /// Trips refused as sensor-implausible.
+    pub implausible_trips: u64,
+    /// Events emitted.
+    pub events: u64,
+}
+
+impl MonitorState {
+    /// Reads a state file.
+    ///
+    /// # Errors
+    /// [`Error::Io`] when unreadable, [`Error::BadDocument`] when it is not a monitor state
+    /// of this version.
+    pub fn load(path: &Path) -> Result<MonitorState> {
+        let text = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+        let bad = |why: String| Error::BadDocument {
+            path: path.into(),
+            what: "monitor state",
+            why,
+        };
+        let v: serde_json::Value = serde_json::from_slice(&text).map_err(|e| bad(e.to_string()))?;
+        let version = v.get("format_version").and_then(serde_json::Value::as_u64);
+        if version != Some(u64::from(STATE_VERSION)) {
+            return Err(bad(format!(
+                "format_version {version:?}, expected {STATE_VERSION}"
+            )));
+        }
+        serde_json::from_value(v).map_err(|e| bad(e.to_string()))
+    }
+
+    /// Writes the state atomically (temporary file, then rename).
+    ///
+    /// # Errors
+    /// [`Error::Io`] when the file cannot be written.
+    pub fn save(&self, path: &Path) -> Result<()> {
+        let json =
+            serde_json::to_vec(self).expect("a state of numbers and names always serialises");
+        let tmp = path.with_extension("tmp");
+        std::fs::write(&tmp, json).map_err(|e| Error::io(&tmp, e))?;
+        std::fs::rename(&tmp, path).map_err(|e| Error::io(path, e))
+    }
+
+    /// The current level.
+    pub fn level(&self) -> Level {
+        self.alarm.level()
+    }
+}
+
+/// The streaming monitor: one aligned sample in, the row of the sample the feature tracker
+/// releases out.
+#[derive(Clone, Debug)]
+pub struct Monitor {
+    model: FittedModel,
+    cache: PredictionCache,
+    st: MonitorState,
+}
+
+impl Monitor {
+    /// A monitor at the healthy reference of `model`, no risk accumulated.
+    pub fn new(model: &FittedModel, method: Method) -> Self {
+        let st = MonitorState {
+            format_version: STATE_VERSION,
+            model_id: model_fingerprint(model),
+            method,
+            features: FeatureTracker::new(model.features.clone()),
+            risk: RiskTracker::new(&model.risk),
+            alarm: AlarmState::default(),
+            trip: TripAccumulator::default(),
+            open_trip: None,
+            sensor: SensorCheck::new(),
+            baseline: Baseline::default(),
+            episode_mode: FaultMode::Unknown,
+            samples: 0,
+            trips: 0,
+            implausible_trips: 0,
+            events: 0,
+        };
+        Monitor {
+            model: model.clone(),
+            cache: PredictionCache::default(),
+            st,
+        }
+    }
+
+    /// Continues from a saved state.
+    ///
+    /// # Errors
+    /// [`Error::StateMismatch`] when the state belongs to another model or version.
+    pub fn resume(model: &FittedModel, state: MonitorState) -> Result<Monitor> {
+        if state.format_version != STATE_VERSION {
+            return Err(Error::StateMismatch(format!(
+                "state format version {} is not {STATE_VERSION}",
+                state.format_version
+            )));
+        }
+        let id = model_fingerprint(model);
+        if state.model_id != id {
+            return Err(Error::StateMismatch(format!(
+                "state belongs to model {}, not to this model {id}; a refit starts monitoring afresh (omit the state)",
+                state.model_id
+            )));
+        }
+        Ok(Monitor {
+            model: model.clone(),
+            cache: PredictionCache::default(),
+            st: state,
+        })
+    }
+
+    /// A copy of the state, to save and resume from.
+    pub fn state(&self) -> MonitorState {
+        self.st.clone()
+    }
+
+    /// The state, read-only (counters, level).
+    pub fn state_ref(&self) -> &MonitorState {
+        &self.st
+    }
+
+    /// Feeds one aligned sample; returns the row of the sample the feature tracker releases
+    /// (the previous one: the tracker lags one sample).
+    pub fn push(&mut self, x: &Sample) -> Option<MonitorRow> {
+        self.st.samples += 1;
+        self.st.sensor.sample(
+            x,
+            &self.model.risk.sensor,
+            self.model.features.moving_threshold_mps,
+        );
+        let row = self.st.features.push(x)?;
+        let trip = self.st.features.take_trip();
+        Some(self.step(&row, trip))
+    }
+
+    /// End of data for good: the rows still held. Without it (a saved state instead), the
+    /// held row is emitted first by the resumed run.
+    pub fn finish(&mut self) -> Vec<MonitorRow> {
+        let rows = self.st.features.finish();
+        let n = rows.len();
+        let mut out = Vec::with_capacity(n);
+        for (i, row) in rows.iter().enumerate() {
+            let trip = if i + 1 == n {
+                self.st.features.take_trip()
+            } else {
+                None
+            };
+            out.push(self.step(row, trip));
+        }
+        // The tracker drops a trip still running; so does the evidence.
+        self.st.trip = TripAccumulator::default();
+        self.st.open_trip = None;
+        out
+    }
+
+    /// Residuals, trip bookkeeping, risk and level for one feature row.
+    fn step(&mut self, x: &FeatureRow, ended: Option<Trip>) -> MonitorRow {
+        let model = &self.model;
+        let st = &mut self.st;
+        let (res, pred) = if crate::residual::applicable(x) {
+            let p = self.cache.predict(model, x);
+            (Residuals::from_prediction(model, x, &p), Some(p))
+        } else {
+            (Residuals::MISSING, None)
+        };
+        if x.trip.is_some() && x.trip != st.open_trip {
+            // A new trip; evidence of one cut by a gap (never reported) is dropped.
+            st.trip = TripAccumulator::default();
+            st.open_trip = x.trip;
+        }
+        if let (Some(p), true) = (pred, x.s != 0 && x.trip.is_some()) {
+            st.trip.push(model, x, &p, &res);
+        }
+        if let Some(t) = ended {
+            self.end_trip(&t);
+        }
+        let st = &mut self.st;
+        let before = st.alarm.level();
+        let limits = &self.model.risk.sensor;
+        let fault = st.sensor.channel_fault(limits, x.time)
+            || st.sensor.score >= limits.implausible_fraction;
+        // Released only at half the fraction: the same hysteresis as the machine levels.
+        let release = st.alarm.sensor() && st.sensor.score >= 0.5 * limits.implausible_fraction;
+        st.alarm.set_sensor(fault || release);
+        match st.method {
+            Method::Pinn => self.pinn_row(x, &res, before),
+            Method::Threshold => self.threshold_row(x, &res),
+        }
+    }
+
+    /// Closes the evidence of a reported trip and feeds the risk stage when plausible.
+    fn end_trip(&mut self, t: &Trip) {
+        let st = &mut self.st;
+        st.trips += 1;
+        let plausible = st.sensor.trip(
+            t,
+            &self.model.risk.sensor,
+            self.model.elevator.floor_height(),
+        );
+        if st.open_trip != Some(t.index) {
+            return;
+        }
+        st.open_trip = None;
+        let Some(ev) = st.trip.finish(plausible) else {
+            return;
+        };
+        if plausible {
+            st.risk.push(&self.model.risk, &ev);
+        } else {
+            st.implausible_trips += 1;
+        }
+    }
+
+    /// The row of the paper's method; `before` is the level before this sample.
+    fn pinn_row(&mut self, x: &FeatureRow, res: &Residuals, before: Level) -> MonitorRow {
+        let cfg = &self.model.risk;
+        let st = &mut self.st;
+        let a = st.risk.last;
+        st.alarm.update_machine(a.risk, cfg);
+        let level = st.alarm.level();
+        let mut event = None;
+        if level != before {
+            if before == Level::Normal {
+                st.episode_mode = if st.alarm.machine_level() == Level::Normal {
+                    FaultMode::Sensor
+                } else if st.alarm.sensor() && attribute(&a.risk_modes, cfg) == FaultMode::Unknown {
+                    FaultMode::Sensor
+                } else {
+                    attribute(&a.risk_modes, cfg)
+                };
+            } else if level > before {
+                // Escalation names the mode again: more evidence may have made it clear.
+                let m = attribute(&a.risk_modes, cfg);
+                if m != FaultMode::Unknown {
+                    st.episode_mode = m;
+                }
+            }
+            let evidence = Evidence::from_assessment(
+                &a,
+                self.model.parameters.f_c,
+                st.risk.trips,
+                st.implausible_trips,
+            );
+            event = Some(Event {
+                time: x.time,
+                level,
+                mode: st.episode_mode,
+                risk: a.risk,
+                evidence,
+            });
+            st.events += 1;
+        }
+        MonitorRow {
+            time: x.time,
+            r_voltage: res.r_u,
+            r_force: res.r_f,
+            risk: a.risk,
+            risk_motor: a.risk_modes[MOTOR],
+            risk_brake: a.risk_modes[BRAKE],
+            risk_friction: a.risk_modes[FRICTION],
+            level,
+            event,
+            e: res.e,
+            kd_drift_pct: 100.0 * a.drift[MOTOR],
+            friction_drift_pct: 100.0 * a.drift[FRICTION],
+            brake_drag_n: self.model.parameters.f_c * a.drift[BRAKE],
+        }
+    }
+
+    fn threshold_row(&mut self, x: &FeatureRow, res: &Residuals) -> MonitorRow {
+        let v = self.st.baseline.push(&self.model, x);
+        if v.event.is_some() {
+            self.st.events += 1;
+        }
+        MonitorRow {
+            time: x.time,
+            r_voltage: res.r_u,
+            r_force: res.r_f,
+            risk: v.risk,
+            risk_motor: v.risk_motor,
+            risk_brake: 0.0,
+            risk_friction: v.risk_friction,
+            level: v.level,
+            event: v.event,
+            e: res.e,
+            kd_drift_pct: f64::NAN,
+            friction_drift_pct: f64::NAN,
+            brake_drag_n: f64::NAN,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::elevator::Elevator;
+    use crate::residual::tests::test_model;
+    use crate::sim::{simulate, SensorFault, SimConfig};
+
+    fn samples(days: f64, seed: u64, fault: Option<SensorFault>) -> Vec<Sample> {
+        let mut cfg = SimConfig::new(Elevator::new(1000.0, 1.75, 26), days, seed);
+        cfg.sensor_fault = fault;
+        simulate(&cfg)
+            .expect("a valid simulation")
+            .aligned()
+            .samples
+    }
+
+    fn csv(rows: &[MonitorRow]) -> String {
+        let mut w = RowWriter::new(Vec::new()).unwrap();
+        for r in rows {
+            w.write(r).unwrap();
+        }
+        String::from_utf8(w.into_inner().unwrap()).unwrap()
+    }
+
+    fn run_all(model: &FittedModel, method: Method, xs: &[Sample]) -> Vec<MonitorRow> {
+        let mut m = Monitor::new(model, method);
+        let mut rows: Vec<MonitorRow> = xs.iter().filter_map(|x| m.push(x)).collect();
+        rows.extend(m.finish());
+        rows
+    }
+
+    #[test]
+    fn state_round_trip_equals_one_run() {
+        // Prior-centre physics do not match the simulated elevator, so risk, levels and events
+        // all move: the comparison covers every part of the state.
+        let mut model = test_model();
+        model.risk.advisory = 5.0;
+        model.risk.alarm = 50.0;
+        let xs = samples(0.4, 3, None);
+        let mid_trip = xs
+            .iter()
+            .position(|x| x.time > 0.2 * 86_400.0 && x.speed > 1.0)
+            .unwrap();
+        for method in [Method::Pinn, Method::Threshold] {
+            let whole = run_all(&model, method, &xs);
+            assert_eq!(whole.len(), xs.len(), "one row per sample");
+            let mut a = Monitor::new(&model, method);
+            let mut rows: Vec<MonitorRow> =
+                xs[..mid_trip].iter().filter_map(|x| a.push(x)).collect();
+            let json = serde_json::to_string(&a.state()).unwrap();
+            let state: MonitorState = serde_json::from_str(&json).unwrap();
+            let mut b = Monitor::resume(&model, state).unwrap();
+            rows.extend(xs[mid_trip..].iter().filter_map(|x| b.push(x)));
+            rows.extend(b.finish());
+            assert_eq!(csv(&rows), csv(&whole), "{method:?}");
+            let events = |r: &[MonitorRow]| {
+                r.iter()
+                    .filter_map(|r| r.event)
+                    .map(|e| e.to_json_line())
+                    .collect::<Vec<_>>()
+            };
+            assert_eq!(events(&rows), events(&whole));
+            if method == Method::Pinn {
+                assert!(
+                    !events(&whole).is_empty(),
+                    "the mismatched model must move the level"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn a_state_from_another_model_is_refused() {
+        let model = test_model();
+        let mut other = test_model();
+        other.parameters.kd *= 1.01;
+        let state = Monitor::new(&model, Method::Pinn).state();
+        assert!(matches!(
+            Monitor::resume(&other, state.clone()),
+            Err(Error::StateMismatch(_))
+        ));
+        assert!(Monitor::resume(&model, state).is_ok());
+    }
+
+    #[test]
+    fn state_is_a_few_kib() {
+        let model = test_model();
+        let xs = samples(0.1, 4, None);
+        let mut m = Monitor::new(&model, Method::Pinn);
+        for x in &xs {
+            let _ = m.push(x);
+        }
+        let n = serde_json::to_vec(&m.state()).unwrap().len();
+        assert!(n < 8 * 1024, "{n} bytes");
+    }
+
+    #[test]
+    fn a_stuck_speed_is_reported_as_sensor_not_machine() {
+        let mut model = test_model();
+        // Machine risk cannot reach a level here: only the sensor checks can.
+        model.risk.advisory = 1e30;
+        model.risk.alarm = 1e31;
+        let onset = 0.1 * 86_400.0;
+        let fault = SensorFault::StuckSpeed {
+            onset_s: onset,
+            duration_s: 3.0 * 3600.0,
+        };
+        let xs = samples(0.3, 5, Some(fault));
+        let mut m = Monitor::new(&model, Method::Pinn);
+        let mut rows: Vec<MonitorRow> = xs.iter().filter_map(|x| m.push(x)).collect();
+        rows.extend(m.finish());
+        let events: Vec<Event> = rows.iter().filter_map(|r| r.event).collect();
+        assert!(m.state_ref().implausible_trips > 0);
+        let first = events
+            .first()
+            .expect("the stuck speed must raise the sensor advisory");
+        assert_eq!(
+            (first.level, first.mode),
+            (Level::Advisory, FaultMode::Sensor)
+        );
+        assert!(first.time >= onset, "{events:?}");
+        // And healthy data of the same seed raise nothing from the sensor checks.
+        let healthy = run_all(&model, Method::Pinn, &samples(0.3, 5, None));
+        assert!(healthy.iter().all(|r| r.level == Level::Normal));
+    }
+
+    #[test]
+    fn csv_keeps_the_contract_column_order() {
+        assert!(CSV_HEADER
+            .starts_with("time,r_voltage,r_force,risk,risk_motor,risk_brake,risk_friction,level"));
+        let r = MonitorRow {
+            time: 1.0,
+            r_voltage: f64::NAN,
+            r_force: f64::NAN,
+            risk: 0.5,
+            risk_motor: 0.0,
+            risk_brake: 0.0,
+            risk_friction: 0.0,
+            level: Level::Normal,
+            event: None,
+            e: f64::NAN,
+            kd_drift_pct: 1.5,
+            friction_drift_pct: f64::NAN,
+            brake_drag_n: f64::NAN,
+        };
+        assert_eq!(
+            csv(&[r]).lines().nth(1).unwrap(),
+            "1,,,0.5,0,0,0,normal,,1.5,,"
+        );
+    }
+}

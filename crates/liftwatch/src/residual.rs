@@ -1,1 +1,268 @@
-//! (in progress)
+//! Stage 5: dual residuals of one feature row against the hybrid model (paper, Sec. 3.3, 4.2).
+//!
+//! ```text
+//! r_U = U_meas − U_pred                  electrical consistency (V); also at standstill, where
+//!                                        U_pred reduces to U0 (+ the network's correction)
+//! r_F = F_pred − F_U                     mechanical consistency (N); only while moving (s ≠ 0)
+//! e_U = r_U / σ_U,   e_F = r_F / σ_F     dimensionless with the healthy scales of the fit
+//! e   = sqrt((e_U² + e_F²) / 2)          combined; one lens alone when the other is missing
+//! ```
+//!
+//! A residual is `NaN` when it is not applicable: r_U needs finite v, a, λ and voltage;
+//! r_F needs in addition motion.
+//!
+//! Caveat, not a deviation: without a current sensor, F_U is derived from the *same*
+//! measured voltage through the motor model, F_U = (U − U0 − Ke·|v|)/(φ(s)·Kd·s). Substituting
+//! U = U_pred + r_U gives
+//!
+//! ```text
+//! r_F = δF − (δU + r_U)/(φ(s)·Kd·s)  ≈  −r_U/(φ(s)·Kd·s)   up to the network's corrections
+//! ```
+//!
+//! so the two lenses are not independent evidence: they see the same voltage deviation, once
+//! in volts and once converted to newtons. The risk stage therefore never counts them as two
+//! independent observations (see [`crate::risk`]).
+
+use crate::features::FeatureRow;
+use crate::model::{FittedModel, Prediction};
+
+/// The dual residuals of one sample. `NaN` marks a residual that is not applicable.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Residuals {
+    /// r_U = U_meas − U_pred (V).
+    pub r_u: f64,
+    /// r_F = F_pred − F_U (N); NaN at standstill.
+    pub r_f: f64,
+    /// e_U = r_U/σ_U (1).
+    pub e_u: f64,
+    /// e_F = r_F/σ_F (1).
+    pub e_f: f64,
+    /// e = sqrt((e_U² + e_F²)/2), or the one finite lens alone (1).
+    pub e: f64,
+}
+
+impl Residuals {
+    /// All residuals missing.
+    pub const MISSING: Residuals = Residuals {
+        r_u: f64::NAN,
+        r_f: f64::NAN,
+        e_u: f64::NAN,
+        e_f: f64::NAN,
+        e: f64::NAN,
+    };
+
+    /// The residuals of `x` with `model` (one forward pass of the network).
+    pub fn compute(model: &FittedModel, x: &FeatureRow) -> Residuals {
+        if !applicable(x) {
+            return Residuals::MISSING;
+        }
+        Residuals::from_prediction(model, x, &model.predict(x))
+    }
+
+    /// The residuals of `x` from a prediction already made for it.
+    pub fn from_prediction(model: &FittedModel, x: &FeatureRow, p: &Prediction) -> Residuals {
+        if !applicable(x) {
+            return Residuals::MISSING;
+        }
+        let r_u = x.voltage - p.u_pred;
+        let r_f = if x.s != 0 { p.f_pred - p.f_u } else { f64::NAN };
+        Residuals::scaled(r_u, r_f, model.scales.sigma_u_v, model.scales.sigma_f_n)
+    }
+
+    /// Scales raw residuals by the healthy σ and combines them.
+    pub fn scaled(r_u: f64, r_f: f64, sigma_u: f64, sigma_f: f64) -> Residuals {
+        let e_u = if r_u.is_finite() && sigma_u > 0.0 {
+            r_u / sigma_u
+        } else {
+            f64::NAN
+        };
+        let e_f = if r_f.is_finite() && sigma_f > 0.0 {
+            r_f / sigma_f
+        } else {
+            f64::NAN
+        };
+        let e = match (e_u.is_finite(), e_f.is_finite()) {
+            (true, true) => ((e_u * e_u + e_f * e_f) / 2.0).sqrt(),
+            (true, false) => e_u.abs(),
+            (false, true) => e_f.abs(),
+            (false, false) => f64::NAN,
+        };
+        Residuals {
+            r_u,
+            r_f,
+            e_u,
+            e_f,
+            e,
+        }
+    }
+}
+
+/// True when the voltage residual can be formed: v, a, λ and voltage are all finite.
+pub fn applicable(x: &FeatureRow) -> bool {
+    x.v.is_finite() && x.a.is_finite() && x.lambda.is_finite() && x.voltage.is_finite()
+}
+
+/// Memo of the last prediction, keyed by the exact inputs (v, λ, a).
+///
+/// At standstill v = a = 0 and λ is held from door close, so consecutive standstill samples
+/// repeat the same inputs: the memo turns their forward pass into a comparison. Moving samples
+/// miss it and pay the one 370-weight pass.
+#[derive(Clone, Debug, Default)]
+pub struct PredictionCache {
+    key: Option<[u64; 3]>,
+    du: f64,
+    df: f64,
+}
+
+impl PredictionCache {
+    /// The prediction for `x`, reusing the network output when (v, λ, a) equals the last call's.
+    pub fn predict(&mut self, model: &FittedModel, x: &FeatureRow) -> Prediction {
+        let key = [x.v.to_bits(), x.lambda.to_bits(), x.a.to_bits()];
+        if self.key != Some(key) {
+            let [du, df] = model.net.forward(x.v, x.lambda, x.a);
+            (self.key, self.du, self.df) = (Some(key), du, df);
+        }
+        let p = &model.parameters;
+        let m_r = model.elevator.rated_load_kg;
+        let f_phys = p.force(x.s, x.v, x.lambda, x.a, m_r);
+        Prediction {
+            u_pred: p.voltage(x.s, x.v, f_phys) + self.du,
+            f_pred: f_phys + self.df,
+            f_u: p.force_from_voltage(x.s, x.v, x.voltage),
+        }
+    }
+
+    /// The residuals of `x`, through the memo.
+    pub fn residuals(&mut self, model: &FittedModel, x: &FeatureRow) -> Residuals {
+        if !applicable(x) {
+            return Residuals::MISSING;
+        }
+        let p = self.predict(model, x);
+        Residuals::from_prediction(model, x, &p)
+    }
+}
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::*;
+    use crate::elevator::Elevator;
+    use crate::features::{FeatureConfig, Phase};
+    use crate::model::{PhysParams, ResidualNet, ResidualScales, FORMAT_VERSION};
+    use crate::risk::RiskConfig;
+
+    /// A model with prior-centre physics and a zero network, for unit tests of later stages.
+    pub(crate) fn test_model() -> FittedModel {
+        let elevator = Elevator::new(1000.0, 1.75, 26);
+        FittedModel {
+            format_version: FORMAT_VERSION,
+            parameters: PhysParams::prior_centre(&elevator),
+            net: ResidualNet::new(1, [1.75, 1.0, 1.0], [5.0, 500.0]),
+            scales: ResidualScales {
+                sigma_u_v: 1.5,
+                sigma_f_n: 300.0,
+            },
+            features: FeatureConfig {
+                rated_load_kg: 1000.0,
+                moving_threshold_mps: 0.05,
+                load_cell_platform_ratio: 0.3,
+                beta_transient: 0.7,
+                beta_cruise: 0.3,
+            },
+            risk: RiskConfig::default(),
+            train: Default::default(),
+            fit: Default::default(),
+            elevator,
+        }
+    }
+
+    /// A feature row whose voltage is exactly what the model predicts plus `r_u`.
+    pub(crate) fn row(
+        model: &FittedModel,
+        time: f64,
+        v: f64,
+        lambda: f64,
+        a: f64,
+        r_u: f64,
+    ) -> FeatureRow {
+        let s = if v.abs() > 0.05 { v.signum() as i8 } else { 0 };
+        let mut x = FeatureRow {
+            time,
+            v,
+            s,
+            lambda,
+            a_v: a,
+            a_l: f64::NAN,
+            a,
+            voltage: 0.0,
+            phase: if s == 0 {
+                Phase::Standstill
+            } else {
+                Phase::Cruising
+            },
+            trip: None,
+        };
+        x.voltage = model.predict(&x).u_pred + r_u;
+        x
+    }
+
+    #[test]
+    fn exact_voltage_leaves_no_residual() {
+        let m = test_model();
+        let r = Residuals::compute(&m, &row(&m, 0.0, 1.5, 0.4, 0.0, 0.0));
+        assert!(r.r_u.abs() < 1e-9 && r.r_f.abs() < 1e-6, "{r:?}");
+    }
+
+    #[test]
+    fn force_residual_mirrors_the_voltage_residual() {
+        // Without a current sensor the two lenses see the same deviation: r_F = −r_U/(φ·Kd·s).
+        let m = test_model();
+        for (v, r_u) in [(1.5, 3.0), (-1.5, 3.0), (1.0, -2.0)] {
+            let r = Residuals::compute(&m, &row(&m, 0.0, v, 0.4, 0.0, r_u));
+            let s = v.signum();
+            let expect = -r_u / (m.parameters.phi(s as i8) * m.parameters.kd * s);
+            assert!(
+                (r.r_f - expect).abs() < 1e-6 * expect.abs(),
+                "{} vs {expect}",
+                r.r_f
+            );
+            assert!((r.e_u - r_u / 1.5).abs() < 1e-9);
+        }
+    }
+
+    #[test]
+    fn standstill_checks_only_the_voltage() {
+        let m = test_model();
+        let r = Residuals::compute(&m, &row(&m, 0.0, 0.0, 0.4, 0.0, 3.0));
+        assert!((r.r_u - 3.0).abs() < 1e-9);
+        assert!(r.r_f.is_nan() && r.e_f.is_nan());
+        assert!((r.e - 2.0).abs() < 1e-9, "one lens alone: e = |e_U|");
+    }
+
+    #[test]
+    fn missing_voltage_makes_every_residual_missing() {
+        let m = test_model();
+        let mut x = row(&m, 0.0, 1.0, 0.4, 0.0, 0.0);
+        x.voltage = f64::NAN;
+        let r = Residuals::compute(&m, &x);
+        assert!(r.r_u.is_nan() && r.r_f.is_nan() && r.e.is_nan());
+    }
+
+    #[test]
+    fn cached_prediction_equals_a_fresh_one() {
+        let mut m = test_model();
+        let mut rng = crate::rng::Rng::new(5);
+        for w in &mut m.net.weights {
+            *w = rng.uniform(-0.5, 0.5);
+        }
+        let mut cache = PredictionCache::default();
+        for x in [
+            row(&m, 0.0, 0.0, 0.3, 0.0, 1.0),
+            row(&m, 1.0, 0.0, 0.3, 0.0, 2.0),
+            row(&m, 2.0, 1.2, 0.3, 0.4, 1.0),
+        ] {
+            let (a, b) = (cache.residuals(&m, &x), Residuals::compute(&m, &x));
+            let bits = |r: Residuals| [r.r_u, r.r_f, r.e_u, r.e_f, r.e].map(f64::to_bits);
+            assert_eq!(bits(a), bits(b), "{a:?} vs {b:?}");
+        }
+    }
+}

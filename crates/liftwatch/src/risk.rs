@@ -1,7 +1,1305 @@
-//! (in progress)
+//! Stage 6: time-accumulated risk, combined and per fault mode (paper, Sec. 4.2 and 5.3).
+//!
+//! ```text
+//! per trip k (moving samples i of the trip, n_k of them):
+//!   z_U = mean_i(e_U) / sqrt(a_U + b_U/n_k)     trip-mean residual over its healthy spread
+//!   z_F = mean_i(e_F) / sqrt(a_F + b_F/n_k)
+//!   e_trip = sqrt((z_U² + z_F²)/2)
+//!   fault signatures, regressed on r_U (recursive least squares, forgetting λ = 1 − 1/H):
+//!     x_motor = φ(s)·Kd·s·F_pred                coefficient = relative change of Kd
+//!     x_brake = φ(s)·Kd·F_c·1[s = −1 or decel]  coefficient = brake drag / F_c
+//!     x_fric  = φ(s)·Kd·(F_c + c·|v|)           coefficient = relative change of friction
+//!   z_m = (θ̂_m − θ0_m) / sqrt(SE_m² + σ_drift,m²),  z⁺_m = max(0, z_m)
+//!   e_k = max(e_trip, z⁺_motor, z⁺_brake, z⁺_fric)          combined evidence
+//!   c_k = ln(1 + e_k)                                       (per mode: c = ln(1 + z⁺_m))
+//!   x_k = max(0, c_k − τ)                                   τ = μ_c + 3·σ_c of the healthy fit
+//!   D_k = D_{k−1} + 1 if x_k > 0 else 0                     consecutive anomalous trips
+//!   R_k = γ·R_{k−1} + x_k·exp(κ·min(D_k, D_max))
+//! ```
+//!
+//! Deviations from the paper, each for a reason the data gives:
+//! - τ comes from the healthy reference stored in [`RiskConfig`], never from the recent
+//!   window: a boundary μ_t + 3σ_t over the recent residuals absorbs a slow drift, which is
+//!   exactly the degradation this stage exists to catch.
+//! - Evidence is aggregated per trip. The 1 Hz residuals within one trip are strongly
+//!   correlated (same load, same thermal state, same acceleration error), so sample-by-sample
+//!   accumulation counts one disturbance ten times. A trip's mean residual is compared with the
+//!   healthy spread of trip means, var = a + b/n, fitted on the healthy trips of the fit (a is
+//!   the part that does not average out within a trip).
+//! - D counts consecutive anomalous trips and γ decays per trip, not per second: an elevator
+//!   that stands still overnight neither gathers nor forgets evidence.
+//! - The voltage and force lenses are not independent (see [`crate::residual`]): they enter
+//!   e_trip as the paper's root mean square, which for two nearly proportional residuals
+//!   equals one lens, not the sum of two.
+//! - Per-mode evidence comes from an online re-identification of three fault signatures
+//!   (MODEL.md "Fault modes") rather than from residuals restricted by phase alone: the
+//!   regression separates a load-proportional voltage rise (motor) from a constant one
+//!   (friction) and a direction-asymmetric one (brake), and reports the drifts in physical
+//!   units. One trip counts as one observation in the regression (its samples weigh 1/n each),
+//!   for the same correlation reason as above. The per-mode statistics are one-sided: only a
+//!   rise of Kd, friction or drag is a degradation.
+//! - Thresholds are calibrated to a stated false-alarm rate by a moving-block bootstrap of the
+//!   healthy trip sequence ([`RiskConfig::calibrate`]); the paper gives no rule for them.
 
 use serde::{Deserialize, Serialize};
 
-/// Risk settings (in progress).
+use crate::baseline::BaselineLimits;
+use crate::error::{Error, Result};
+use crate::features::{FeatureRow, Phase};
+use crate::model::{FittedModel, Prediction};
+use crate::residual::{PredictionCache, Residuals};
+use crate::rng::Rng;
+
+/// Number of machine fault modes with a signature: motor, brake, friction.
+pub const N_MODES: usize = 3;
+/// Index of the motor signature.
+pub const MOTOR: usize = 0;
+/// Index of the brake signature.
+pub const BRAKE: usize = 1;
+/// Index of the friction signature.
+pub const FRICTION: usize = 2;
+
+/// Seconds per year, for trip rates.
+const YEAR_S: f64 = 365.25 * 86_400.0;
+
+/// Serde for the floats of monitor states: the shortest decimal that parses back to the same
+/// bits, as a string, so that NaN survives JSON and no parser rounds the last digit (a
+/// resumed run must give exactly the rows of one run).
+pub(crate) mod exact {
+    use serde::de::Error as _;
+    use serde::{Deserialize, Deserializer, Serializer};
+
+    fn parse<E: serde::de::Error>(t: &str) -> Result<f64, E> {
+        t.parse()
+            .map_err(|_| E::custom(format!("`{t}` is not a number")))
+    }
+
+    pub fn serialize<S: Serializer>(x: &f64, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(&format!("{x:?}"))
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+        parse(&String::deserialize(d)?)
+    }
+
+    /// The same for fixed-size arrays.
+    pub mod array {
+        use super::*;
+
+        pub fn serialize<S: Serializer, const N: usize>(
+            x: &[f64; N],
+            s: S,
+        ) -> Result<S::Ok, S::Error> {
+            s.collect_seq(x.iter().map(|v| format!("{v:?}")))
+        }
+
+        pub fn deserialize<'de, D: Deserializer<'de>, const N: usize>(
+            d: D,
+        ) -> Result<[f64; N], D::Error> {
+            let v = Vec::<String>::deserialize(d)?;
+            let parsed = v
+                .iter()
+                .map(|t| parse(t))
+                .collect::<Result<Vec<f64>, D::Error>>()?;
+            let n = parsed.len();
+            parsed
+                .try_into()
+                .map_err(|_| D::Error::custom(format!("expected {N} numbers, found {n}")))
+        }
+    }
+}
+
+/// Thresholds on raw samples and trips that tell a broken sensor from a broken machine.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SensorLimits {
+    /// Lowest plausible load reading (percent of rated load).
+    pub min_load_pct: f64,
+    /// Highest plausible load reading (percent of rated load).
+    pub max_load_pct: f64,
+    /// A trip longer than this is implausible: the speed signal is stuck (s).
+    pub max_trip_s: f64,
+    /// Peak speed above which a trip must change the floor indicator (m/s).
+    pub floor_change_speed_mps: f64,
+    /// This many consecutive door cycles with a bit-identical load reading mean a stuck cell.
+    pub stuck_load_cycles: u32,
+    /// A channel missing this long while others report is a sensor fault (s); loggers drop a
+    /// signal for minutes now and then, so this is an hour.
+    pub missing_limit_s: f64,
+    /// Fraction of recent trips (exponential average over ~10 trips) that must be implausible
+    /// to report `sensor`.
+    pub implausible_fraction: f64,
+}
+
+impl Default for SensorLimits {
+    fn default() -> Self {
+        SensorLimits {
+            min_load_pct: -15.0,
+            max_load_pct: 150.0,
+            max_trip_s: 120.0,
+            floor_change_speed_mps: 0.5,
+            stuck_load_cycles: 20,
+            missing_limit_s: 3600.0,
+            implausible_fraction: 0.5,
+        }
+    }
+}
+
+/// What the calibration did, kept in the model file so the thresholds can be audited.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CalibrationReport {
+    /// Healthy trips used.
+    pub trips: usize,
+    /// Hours of healthy data they span.
+    pub hours: f64,
+    /// Trips per year at the healthy trip rate.
+    pub trips_per_year: f64,
+    /// Years of healthy operation simulated by the bootstrap.
+    pub years_simulated: f64,
+    /// Length of a bootstrap block (s).
+    pub block_s: f64,
+    /// Seed of the bootstrap.
+    pub seed: u64,
+    /// The stated target: false advisories per elevator-year.
+    pub target_false_advisories_per_year: f64,
+    /// False advisories per year in an independent bootstrap run with the chosen thresholds.
+    pub validated_false_advisories_per_year: f64,
+}
+
+/// Risk settings: accumulator constants and the healthy reference, calibrated by the fit.
+///
+/// [`RiskConfig::default`] holds uncalibrated textbook values (unit-normal healthy
+/// statistics); a model written by `fit` carries the output of [`RiskConfig::calibrate`].
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RiskConfig {
+    /// γ: decay of R per trip (1).
+    pub gamma: f64,
+    /// κ: duration gain per consecutive anomalous trip (1).
+    pub kappa: f64,
+    /// D_max: cap of the duration, in trips.
+    pub d_max_trips: f64,
+    /// H: forgetting horizon of the re-identification, in trips (λ = 1 − 1/H).
+    pub forgetting_trips: f64,
+    /// Trips with fewer moving samples carrying both residuals are not evidence (re-levelling).
+    pub min_trip_samples: u32,
+    /// (a, b) of the healthy variance of a trip-mean e_U: var = a + b/n.
+    pub trip_spread_u: [f64; 2],
+    /// (a, b) of the healthy variance of a trip-mean e_F.
+    pub trip_spread_f: [f64; 2],
+    /// θ0: healthy signature coefficients (motor, brake, friction) the drifts are measured from.
+    pub healthy_coef: [f64; N_MODES],
+    /// σ_drift: healthy wander of the coefficients beyond estimation noise (thermal drift).
+    pub drift_sd: [f64; N_MODES],
+    /// Prior information of the re-identification (packed upper triangle of XᵀX, healthy).
+    pub prior_info: [f64; 6],
+    /// Healthy variance of the per-trip regression residual (V²).
+    pub prior_s2: f64,
+    /// τ of the combined evidence (in c = ln(1 + e) units).
+    pub tau: f64,
+    /// τ of each mode.
+    pub tau_modes: [f64; N_MODES],
+    /// Combined risk at which the level becomes advisory.
+    pub advisory: f64,
+    /// Combined risk at which the level becomes alarm.
+    pub alarm: f64,
+    /// Per-mode risk the healthy bootstrap reaches once in the simulated years (attribution scale).
+    pub advisory_modes: [f64; N_MODES],
+    /// Hysteresis: a level is left only when risk falls below this fraction of its threshold.
+    pub release_ratio: f64,
+    /// A mode is named only when its scaled risk is this many times the runner-up's.
+    pub dominance: f64,
+    /// Sensor plausibility limits.
+    pub sensor: SensorLimits,
+    /// Limits of the conventional fixed-threshold method.
+    pub baseline: BaselineLimits,
+    /// How the thresholds were set; `None` for uncalibrated defaults.
+    pub calibration: Option<CalibrationReport>,
+}
+
+impl Default for RiskConfig {
+    fn default() -> Self {
+        let mut cfg = RiskConfig {
+            gamma: 0.99,
+            kappa: 0.1,
+            d_max_trips: 30.0,
+            forgetting_trips: 300.0,
+            min_trip_samples: 3,
+            trip_spread_u: [0.05, 1.0],
+            trip_spread_f: [0.05, 1.0],
+            healthy_coef: [0.0; N_MODES],
+            drift_sd: [0.02, 0.05, 0.05],
+            prior_info: [0.0; 6],
+            prior_s2: 1.0,
+            // μ + 3σ of c = ln(1 + |z|) for a unit-normal z.
+            tau: 1.5,
+            tau_modes: [1.5; N_MODES],
+            advisory: 0.0,
+            alarm: 0.0,
+            advisory_modes: [0.0; N_MODES],
+            release_ratio: 0.5,
+            dominance: 1.5,
+            sensor: SensorLimits::default(),
+            baseline: BaselineLimits::default(),
+            calibration: None,
+        };
+        cfg.advisory = cfg.advisory_floor();
+        cfg.alarm = 4.0 * cfg.advisory;
+        cfg.advisory_modes = [cfg.advisory; N_MODES];
+        cfg
+    }
+}
+
+/// Settings of [`RiskConfig::calibrate`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct CalibrationSettings {
+    /// Years of healthy operation the bootstrap simulates; the advisory threshold is the
+    /// highest risk reached in them, i.e. the level exceeded once in this many years.
+    pub years: f64,
+    /// Length of a bootstrap block (s): a few hours keep the slow thermal drift's autocorrelation.
+    pub block_s: f64,
+    /// Seed of the bootstrap.
+    pub seed: u64,
+    /// Stated target of false advisories per elevator-year; calibration fails its own check
+    /// (and says so in the report) when the validation run exceeds it.
+    pub target_false_advisories_per_year: f64,
+    /// Alarm threshold as a multiple of the advisory threshold.
+    pub alarm_factor: f64,
+}
+
+impl Default for CalibrationSettings {
+    fn default() -> Self {
+        CalibrationSettings {
+            years: 10.0,
+            block_s: 4.0 * 3600.0,
+            seed: 1,
+            target_false_advisories_per_year: 1.0,
+            alarm_factor: 4.0,
+        }
+    }
+}
+
+impl RiskConfig {
+    /// λ = 1 − 1/H: the forgetting factor of the re-identification per trip.
+    pub fn forgetting(&self) -> f64 {
+        1.0 - 1.0 / self.forgetting_trips.max(1.0)
+    }
+
+    /// The lowest advisory threshold: the risk of 20 consecutive trips each 0.1 above τ.
+    /// Without it, very clean healthy data would put the threshold at zero and any excess
+    /// would raise an advisory.
+    pub fn advisory_floor(&self) -> f64 {
+        let mut acc = Accumulator::default();
+        for _ in 0..20 {
+            acc.step(0.1, 0.0, self);
+        }
+        acc.r
+    }
+
+    /// Checks the settings a hand-edited model file could break.
+    ///
+    /// # Errors
+    /// [`Error::InvalidConfig`] naming the first field out of range.
+    pub fn validate(&self) -> Result<()> {
+        let bad = |field, why: &str| {
+            Err(Error::InvalidConfig {
+                field,
+                why: why.into(),
+            })
+        };
+        if !(self.gamma > 0.0 && self.gamma < 1.0) {
+            return bad("risk.gamma", "expected 0 < γ < 1");
+        }
+        if !(self.kappa >= 0.0 && self.kappa < 1.0) {
+            return bad("risk.kappa", "expected 0 <= κ < 1");
+        }
+        if !(self.d_max_trips >= 0.0 && self.d_max_trips <= 1000.0) {
+            return bad("risk.d_max_trips", "expected 0 to 1000 trips");
+        }
+        if !(self.forgetting_trips >= 10.0) {
+            return bad("risk.forgetting_trips", "expected at least 10 trips");
+        }
+        if !(self.advisory > 0.0 && self.alarm >= self.advisory) {
+            return bad("risk.alarm", "expected 0 < advisory <= alarm");
+        }
+        if !(self.release_ratio > 0.0 && self.release_ratio < 1.0) {
+            return bad("risk.release_ratio", "expected between 0 and 1");
+        }
+        Ok(())
+    }
+
+    /// Calibrates τ, the healthy spreads and the advisory/alarm thresholds on the healthy trips
+    /// of the training data, in time order.
+    ///
+    /// Method: (1) the trip spread var(mean e) = a + b/n is fitted by least squares on the
+    /// squared trip means; (2) the re-identification runs over the healthy trips, giving θ0
+    /// (mean of the estimates after warm-up) and σ_drift² = var(θ̂) − mean(SE²), the wander the
+    /// estimation noise does not explain (thermal drift of the winding resistance shows here);
+    /// (3) τ = μ_c + 3·σ_c of the healthy c (floored at ln 3: e below 2 is never anomalous);
+    /// (4) a moving-block bootstrap draws blocks of `block_s` of consecutive healthy trips
+    /// and runs the whole tracker over `years` of them at the healthy trip rate; the advisory
+    /// threshold is the highest combined risk it reaches (the level exceeded once in `years`
+    /// years, so a nominal 1/`years` false advisories per year: a margin for what a
+    /// bootstrap of a short record cannot show), never below [`RiskConfig::advisory_floor`];
+    /// the alarm threshold is `alarm_factor` times that. A second, independent bootstrap run
+    /// counts the false advisories per year with the final thresholds and hysteresis; the
+    /// figure is stored in [`CalibrationReport`].
+    ///
+    /// # Errors
+    /// [`Error::Unidentifiable`] with fewer than 30 usable healthy trips, or when they span
+    /// only one direction of travel.
+    pub fn calibrate(
+        healthy: &[TripEvidence],
+        baseline: BaselineLimits,
+        settings: &CalibrationSettings,
+    ) -> Result<RiskConfig> {
+        let mut cfg = RiskConfig {
+            baseline,
+            ..RiskConfig::default()
+        };
+        let trips: Vec<TripEvidence> = healthy.iter().filter(|t| t.usable(&cfg)).cloned().collect();
+        if trips.len() < 30 {
+            return Err(Error::Unidentifiable(format!(
+                "risk calibration needs at least 30 healthy trips with {} moving samples, found {}",
+                cfg.min_trip_samples,
+                trips.len()
+            )));
+        }
+        if !trips.iter().any(|t| t.direction > 0) || !trips.iter().any(|t| t.direction < 0) {
+            return Err(Error::Unidentifiable(
+                "risk calibration needs healthy trips in both directions".into(),
+            ));
+        }
+        let longest = trips.iter().map(|t| t.end - t.start).fold(0.0, f64::max);
+        cfg.sensor.max_trip_s = (2.0 * longest + 20.0).max(cfg.sensor.max_trip_s);
+        cfg.trip_spread_u = fit_spread(trips.iter().map(|t| (t.mean_e_u, t.n)));
+        cfg.trip_spread_f = fit_spread(trips.iter().map(|t| (t.mean_e_f, t.n)));
+        calibrate_drift(&mut cfg, &trips);
+        calibrate_tau(&mut cfg, &trips);
+
+        let t0 = trips.first().map_or(0.0, |t| t.start);
+        let t1 = trips.last().map_or(0.0, |t| t.end);
+        let span_s = (t1 - t0).max(3600.0);
+        let trips_per_year = trips.len() as f64 / span_s * YEAR_S;
+        let total = (settings.years.max(0.1) * trips_per_year).ceil() as u64;
+        let mut rng = Rng::new(settings.seed);
+        let (max_r, max_modes) = bootstrap_maxima(&cfg, &trips, settings.block_s, total, &mut rng);
+        let floor = cfg.advisory_floor();
+        cfg.advisory = max_r.max(floor);
+        cfg.alarm = settings.alarm_factor.max(1.0) * cfg.advisory;
+        for m in 0..N_MODES {
+            cfg.advisory_modes[m] = max_modes[m].max(floor);
+        }
+        let mut rng = Rng::new(settings.seed ^ 0x5EED_CA11_B4A7_E000);
+        let episodes = bootstrap_episodes(&cfg, &trips, settings.block_s, total, &mut rng);
+        cfg.calibration = Some(CalibrationReport {
+            trips: trips.len(),
+            hours: span_s / 3600.0,
+            trips_per_year,
+            years_simulated: settings.years,
+            block_s: settings.block_s,
+            seed: settings.seed,
+            target_false_advisories_per_year: settings.target_false_advisories_per_year,
+            validated_false_advisories_per_year: episodes as f64 / settings.years.max(0.1),
+        });
+        cfg.validate()?;
+        Ok(cfg)
+    }
+}
+
+/// Least-squares fit of mean² ≈ a + b/n with a, b ≥ small positive floors.
+fn fit_spread(it: impl Iterator<Item = (f64, u32)>) -> [f64; 2] {
+    let (mut s1, mut sx, mut sxx, mut sy, mut sxy) = (0.0, 0.0, 0.0, 0.0, 0.0);
+    for (m, n) in it {
+        if !m.is_finite() || n == 0 {
+            continue;
+        }
+        let (x, y) = (1.0 / f64::from(n), m * m);
+        s1 += 1.0;
+        sx += x;
+        sxx += x * x;
+        sy += y;
+        sxy += x * y;
+    }
+    if s1 < 2.0 {
+        return RiskConfig::default().trip_spread_u;
+    }
+    let det = s1 * sxx - sx * sx;
+    let mean_y = sy / s1;
+    let (a, b) = if det > 1e-12 * s1 * sxx {
+        let b = (s1 * sxy - sx * sy) / det;
+        ((sy - b * sx) / s1, b)
+    } else {
+        (mean_y, 0.0)
+    };
+    // A negative component is an artefact of noise; give its share to the other one.
+    match (a > 0.0, b > 0.0) {
+        (true, true) => [a, b],
+        (true, false) => [mean_y.max(1e-6), 0.0],
+        (false, true) => [1e-3 * mean_y.max(1e-6), sy / sx.max(1e-12)],
+        (false, false) => [mean_y.max(1e-6), 0.0],
+    }
+}
+
+/// Step 2 of the calibration: θ0, σ_drift, the prior information and s² from a healthy pass.
+fn calibrate_drift(cfg: &mut RiskConfig, trips: &[TripEvidence]) {
+    let forget = cfg.forgetting();
+    let mut rls = Rls::default();
+    let warmup = (cfg.forgetting_trips as usize / 2).min(trips.len() / 3);
+    let mut sum = [0.0; N_MODES];
+    let mut sum2 = [0.0; N_MODES];
+    let mut se2 = [0.0; N_MODES];
+    let mut s2_sum = 0.0;
+    let mut count = 0.0;
+    for (k, t) in trips.iter().enumerate() {
+        if k >= warmup {
+            if let Some((theta, _)) = rls.estimate(1.0) {
+                s2_sum += t.fit_error(&theta);
+            }
+        }
+        rls.update(t, forget);
+        if k < warmup {
+            continue;
+        }
+        let Some((theta, var)) = rls.estimate(1.0) else {
+            continue;
+        };
+        count += 1.0;
+        for m in 0..N_MODES {
+            sum[m] += theta[m];
+            sum2[m] += theta[m] * theta[m];
+            se2[m] += var[m];
+        }
+    }
+    if count < 2.0 {
+        return;
+    }
+    cfg.prior_s2 = (s2_sum / count).max(1e-12);
+    // The variances above were computed with s² = 1; rescale them with the healthy s².
+    for m in 0..N_MODES {
+        let mean = sum[m] / count;
+        let var = (sum2[m] / count - mean * mean).max(0.0);
+        let est = cfg.prior_s2 * se2[m] / count;
+        cfg.healthy_coef[m] = mean;
+        // A floor of 0.5 % (relative units) keeps a very clean record from declaring any
+        // wander anomalous.
+        cfg.drift_sd[m] = (var - est).max(0.0).sqrt().max(0.005);
+    }
+    cfg.prior_info = rls.a;
+}
+
+/// Step 3 of the calibration: τ = μ + 3σ of the healthy c, combined and per mode.
+fn calibrate_tau(cfg: &mut RiskConfig, trips: &[TripEvidence]) {
+    let mut tracker = RiskTracker::new(cfg);
+    let mut c = Vec::with_capacity(trips.len());
+    let mut cm: [Vec<f64>; N_MODES] = Default::default();
+    for t in trips {
+        let s = tracker.statistics(cfg, t);
+        c.push(s.c);
+        for m in 0..N_MODES {
+            cm[m].push(s.c_modes[m]);
+        }
+    }
+    let floor = (1.0f64 + 2.0).ln();
+    cfg.tau = mean_plus_3sd(&c).max(floor);
+    for m in 0..N_MODES {
+        cfg.tau_modes[m] = mean_plus_3sd(&cm[m]).max(floor);
+    }
+}
+
+fn mean_plus_3sd(x: &[f64]) -> f64 {
+    let n = x.len().max(1) as f64;
+    let mean = x.iter().sum::<f64>() / n;
+    let var = x.iter().map(|v| (v - mean) * (v - mean)).sum::<f64>() / n;
+    mean + 3.0 * var.sqrt()
+}
+
+/// Draws a moving-block bootstrap sequence of `total` trips and hands each to `f`.
+fn bootstrap(
+    trips: &[TripEvidence],
+    block_s: f64,
+    total: u64,
+    rng: &mut Rng,
+    mut f: impl FnMut(&TripEvidence),
+) {
+    let n = trips.len();
+    let mut done = 0u64;
+    while done < total {
+        let i0 = (rng.next_u64() % n as u64) as usize;
+        let start = trips[i0].start;
+        for t in &trips[i0..] {
+            if t.start - start >= block_s || done >= total {
+                break;
+            }
+            f(t);
+            done += 1;
+        }
+    }
+}
+
+/// Highest combined and per-mode risks over a bootstrap run.
+fn bootstrap_maxima(
+    cfg: &RiskConfig,
+    trips: &[TripEvidence],
+    block_s: f64,
+    total: u64,
+    rng: &mut Rng,
+) -> (f64, [f64; N_MODES]) {
+    let mut tracker = RiskTracker::new(cfg);
+    let (mut max_r, mut max_m) = (0.0f64, [0.0f64; N_MODES]);
+    bootstrap(trips, block_s, total, rng, |t| {
+        let a = tracker.push(cfg, t);
+        max_r = max_r.max(a.risk);
+        for m in 0..N_MODES {
+            max_m[m] = max_m[m].max(a.risk_modes[m]);
+        }
+    });
+    (max_r, max_m)
+}
+
+/// Advisory episodes (with the hysteresis of [`crate::alarm`]) over a bootstrap run.
+fn bootstrap_episodes(
+    cfg: &RiskConfig,
+    trips: &[TripEvidence],
+    block_s: f64,
+    total: u64,
+    rng: &mut Rng,
+) -> u64 {
+    let mut tracker = RiskTracker::new(cfg);
+    let mut alarm = crate::alarm::AlarmState::default();
+    let mut episodes = 0;
+    bootstrap(trips, block_s, total, rng, |t| {
+        let a = tracker.push(cfg, t);
+        let before = alarm.machine_level();
+        alarm.update_machine(a.risk, cfg);
+        if before == crate::alarm::Level::Normal
+            && alarm.machine_level() != crate::alarm::Level::Normal
+        {
+            episodes += 1;
+        }
+    });
+    episodes
+}
+
+/// Evidence of one trip: trip-mean residuals and the trip's share of the signature regression.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TripEvidence {
+    /// Time of the first moving sample (s).
+    pub start: f64,
+    /// Time of the last moving sample (s).
+    pub end: f64,
+    /// Moving samples with a voltage residual.
+    pub n: u32,
+    /// Direction of travel: +1 up, −1 down.
+    pub direction: i8,
+    /// Mean of e_U over the trip's moving samples.
+    pub mean_e_u: f64,
+    /// Mean of e_F over the trip's moving samples.
+    pub mean_e_f: f64,
+    /// Mean of x·xᵀ over the samples, packed upper triangle (00, 01, 02, 11, 12, 22) (V²).
+    pub xtx: [f64; 6],
+    /// Mean of x·r_U over the samples (V²).
+    pub xtr: [f64; N_MODES],
+    /// Mean of r_U² over the samples (V²).
+    pub rr: f64,
+    /// False when a sensor plausibility check failed: the trip is not machine evidence.
+    pub plausible: bool,
+}
+
+impl TripEvidence {
+    /// True when the trip counts as machine evidence.
+    pub fn usable(&self, cfg: &RiskConfig) -> bool {
+        self.plausible && self.n >= cfg.min_trip_samples && self.mean_e_u.is_finite()
+    }
+
+    /// Mean squared regression residual of the trip for coefficients θ (V²).
+    fn fit_error(&self, theta: &[f64; N_MODES]) -> f64 {
+        let xtx = unpack(&self.xtx);
+        let mut q = self.rr;
+        for i in 0..N_MODES {
+            q -= 2.0 * theta[i] * self.xtr[i];
+            for j in 0..N_MODES {
+                q += theta[i] * xtx[i][j] * theta[j];
+            }
+        }
+        q.max(0.0)
+    }
+}
+
+/// The fault-signature regressors of one moving sample (V per unit coefficient).
+pub fn signature(model: &FittedModel, x: &FeatureRow, f_pred: f64) -> [f64; N_MODES] {
+    let p = &model.parameters;
+    let phi_kd = p.phi(x.s) * p.kd;
+    let s = f64::from(x.s);
+    let braking = x.s == -1 || x.phase == Phase::Decelerating;
+    let mut out = [0.0; N_MODES];
+    out[MOTOR] = phi_kd * s * f_pred;
+    out[BRAKE] = if braking { phi_kd * p.f_c } else { 0.0 };
+    out[FRICTION] = phi_kd * (p.f_c + p.c_visc * x.v.abs());
+    out
+}
+
+/// Sums the samples of one trip into a [`TripEvidence`].
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-pub struct RiskConfig {}
+pub struct TripAccumulator {
+    #[serde(with = "exact")]
+    start: f64,
+    #[serde(with = "exact")]
+    end: f64,
+    n: u32,
+    n_f: u32,
+    up: u32,
+    down: u32,
+    #[serde(with = "exact")]
+    sum_e_u: f64,
+    #[serde(with = "exact")]
+    sum_e_f: f64,
+    #[serde(with = "exact::array")]
+    xtx: [f64; 6],
+    #[serde(with = "exact::array")]
+    xtr: [f64; N_MODES],
+    #[serde(with = "exact")]
+    rr: f64,
+}
+
+impl TripAccumulator {
+    /// Adds one moving sample with its prediction and residuals; standstill samples and
+    /// samples without a voltage residual are ignored.
+    pub fn push(&mut self, model: &FittedModel, x: &FeatureRow, p: &Prediction, r: &Residuals) {
+        if x.s == 0 || !r.r_u.is_finite() {
+            return;
+        }
+        if self.n == 0 {
+            self.start = x.time;
+        }
+        self.end = x.time;
+        self.n += 1;
+        if x.s > 0 {
+            self.up += 1;
+        } else {
+            self.down += 1;
+        }
+        self.sum_e_u += r.e_u;
+        if r.e_f.is_finite() {
+            self.sum_e_f += r.e_f;
+            self.n_f += 1;
+        }
+        let sig = signature(model, x, p.f_pred);
+        let mut k = 0;
+        for i in 0..N_MODES {
+            self.xtr[i] += sig[i] * r.r_u;
+            for j in i..N_MODES {
+                self.xtx[k] += sig[i] * sig[j];
+                k += 1;
+            }
+        }
+        self.rr += r.r_u * r.r_u;
+    }
+
+    /// Moving samples so far.
+    pub fn len(&self) -> u32 {
+        self.n
+    }
+
+    /// True before the first moving sample.
+    pub fn is_empty(&self) -> bool {
+        self.n == 0
+    }
+
+    /// The trip's evidence (means over its samples), or `None` for a trip without samples;
+    /// resets the accumulator.
+    pub fn finish(&mut self, plausible: bool) -> Option<TripEvidence> {
+        let a = std::mem::take(self);
+        if a.n == 0 {
+            return None;
+        }
+        let n = f64::from(a.n);
+        Some(TripEvidence {
+            start: a.start,
+            end: a.end,
+            n: a.n,
+            direction: if a.up >= a.down { 1 } else { -1 },
+            mean_e_u: a.sum_e_u / n,
+            mean_e_f: if a.n_f > 0 {
+                a.sum_e_f / f64::from(a.n_f)
+            } else {
+                f64::NAN
+            },
+            xtx: a.xtx.map(|v| v / n),
+            xtr: a.xtr.map(|v| v / n),
+            rr: a.rr / n,
+            plausible,
+        })
+    }
+}
+
+/// The healthy trips of a training set, for [`RiskConfig::calibrate`]: residuals of `rows`
+/// with `model`, summed per trip (trips as marked by [`FeatureRow::trip`]). Plausibility of
+/// the raw sensors is not checked here: training data are healthy by assumption.
+pub fn trip_evidence(model: &FittedModel, rows: &[FeatureRow]) -> Vec<TripEvidence> {
+    let mut out = Vec::new();
+    let mut acc = TripAccumulator::default();
+    let mut cache = PredictionCache::default();
+    let mut open: Option<u32> = None;
+    for x in rows {
+        if x.trip != open {
+            out.extend(acc.finish(true));
+            open = x.trip;
+        }
+        if x.s != 0 && crate::residual::applicable(x) {
+            let p = cache.predict(model, x);
+            let r = Residuals::from_prediction(model, x, &p);
+            acc.push(model, x, &p, &r);
+        }
+    }
+    out.extend(acc.finish(true));
+    out
+}
+
+fn unpack(p: &[f64; 6]) -> [[f64; 3]; 3] {
+    [[p[0], p[1], p[2]], [p[1], p[3], p[4]], [p[2], p[4], p[5]]]
+}
+
+/// Inverse of a symmetric positive-definite 3×3 matrix by Cholesky; `None` when it is not.
+fn spd_inverse(p: &[f64; 6]) -> Option<[[f64; 3]; 3]> {
+    let a = unpack(p);
+    let scale = (a[0][0] + a[1][1] + a[2][2]) / 3.0;
+    if !(scale > 0.0) || !scale.is_finite() {
+        return None;
+    }
+    let mut l = [[0.0; 3]; 3];
+    for i in 0..3 {
+        for j in 0..=i {
+            let mut s = a[i][j];
+            for k in 0..j {
+                s -= l[i][k] * l[j][k];
+            }
+            if i == j {
+                if s <= 1e-10 * scale {
+                    return None;
+                }
+                l[i][i] = s.sqrt();
+            } else {
+                l[i][j] = s / l[j][j];
+            }
+        }
+    }
+    // Invert L (lower triangular), then A⁻¹ = L⁻ᵀ·L⁻¹.
+    let mut li = [[0.0; 3]; 3];
+    for i in 0..3 {
+        li[i][i] = 1.0 / l[i][i];
+        for j in 0..i {
+            let mut s = 0.0;
+            for k in j..i {
+                s -= l[i][k] * li[k][j];
+            }
+            li[i][j] = s / l[i][i];
+        }
+    }
+    let mut inv = [[0.0; 3]; 3];
+    for i in 0..3 {
+        for j in 0..3 {
+            inv[i][j] = (i.max(j)..3).map(|k| li[k][i] * li[k][j]).sum();
+        }
+    }
+    Some(inv)
+}
+
+/// Recursive least squares with exponential forgetting, on per-trip normal equations.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Rls {
+    /// Forgetting-weighted Σ XᵀX (packed upper triangle).
+    #[serde(with = "exact::array")]
+    pub a: [f64; 6],
+    /// Forgetting-weighted Σ Xᵀr.
+    #[serde(with = "exact::array")]
+    pub b: [f64; N_MODES],
+}
+
+impl Rls {
+    /// A regression that starts from the healthy prior: information `prior_info` at θ0.
+    pub fn with_prior(cfg: &RiskConfig) -> Self {
+        let a = cfg.prior_info;
+        let m = unpack(&a);
+        let mut b = [0.0; N_MODES];
+        for i in 0..N_MODES {
+            b[i] = (0..N_MODES).map(|j| m[i][j] * cfg.healthy_coef[j]).sum();
+        }
+        Rls { a, b }
+    }
+
+    /// Forgets by `forget`, then adds one trip.
+    pub fn update(&mut self, t: &TripEvidence, forget: f64) {
+        for k in 0..6 {
+            self.a[k] = forget * self.a[k] + t.xtx[k];
+        }
+        for k in 0..N_MODES {
+            self.b[k] = forget * self.b[k] + t.xtr[k];
+        }
+    }
+
+    /// θ̂ and the variances s²·(A⁻¹)_jj, or `None` while the signatures are not separable yet.
+    pub fn estimate(&self, s2: f64) -> Option<([f64; N_MODES], [f64; N_MODES])> {
+        let inv = spd_inverse(&self.a)?;
+        let mut theta = [0.0; N_MODES];
+        let mut var = [0.0; N_MODES];
+        for i in 0..N_MODES {
+            theta[i] = (0..N_MODES).map(|j| inv[i][j] * self.b[j]).sum();
+            var[i] = s2 * inv[i][i];
+        }
+        Some((theta, var))
+    }
+}
+
+/// One accumulator R with its duration D.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Accumulator {
+    /// R: the risk (1).
+    #[serde(with = "exact")]
+    pub r: f64,
+    /// D: consecutive anomalous trips.
+    pub d: u32,
+}
+
+impl Accumulator {
+    /// One trip: x = max(0, c − τ), D, R = γ·R + x·exp(κ·min(D, D_max)); returns x.
+    pub fn step(&mut self, c: f64, tau: f64, cfg: &RiskConfig) -> f64 {
+        let x = if c.is_finite() {
+            (c - tau).max(0.0)
+        } else {
+            0.0
+        };
+        self.d = if x > 0.0 { self.d.saturating_add(1) } else { 0 };
+        let gain = (cfg.kappa * f64::from(self.d).min(cfg.d_max_trips)).exp();
+        self.r = cfg.gamma * self.r + x * gain;
+        x
+    }
+}
+
+/// The statistics of one trip before accumulation.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+struct TripStatistics {
+    c: f64,
+    c_modes: [f64; N_MODES],
+    e_trip: f64,
+}
+
+/// What the tracker concluded after one trip.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct TripAssessment {
+    /// e_trip: the trip-mean residual magnitude over its healthy spread (1).
+    #[serde(with = "exact")]
+    pub e_trip: f64,
+    /// Combined risk R.
+    #[serde(with = "exact")]
+    pub risk: f64,
+    /// Per-mode risks (motor, brake, friction).
+    #[serde(with = "exact::array")]
+    pub risk_modes: [f64; N_MODES],
+    /// Re-identified signature coefficients minus θ0 (motor, brake, friction; relative units).
+    #[serde(with = "exact::array")]
+    pub drift: [f64; N_MODES],
+    /// Standard errors of the drifts.
+    #[serde(with = "exact::array")]
+    pub drift_se: [f64; N_MODES],
+    /// One-sided drift statistics z⁺ (motor, brake, friction).
+    #[serde(with = "exact::array")]
+    pub z: [f64; N_MODES],
+}
+
+/// The risk state of one elevator: re-identification, accumulators and the last assessment.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RiskTracker {
+    rls: Rls,
+    #[serde(with = "exact")]
+    s2: f64,
+    combined: Accumulator,
+    modes: [Accumulator; N_MODES],
+    /// Trips taken as machine evidence so far.
+    pub trips: u64,
+    /// The latest assessment.
+    pub last: TripAssessment,
+}
+
+impl RiskTracker {
+    /// A tracker at the healthy reference of `cfg`, with no risk accumulated.
+    pub fn new(cfg: &RiskConfig) -> Self {
+        RiskTracker {
+            rls: Rls::with_prior(cfg),
+            s2: cfg.prior_s2,
+            combined: Accumulator::default(),
+            modes: [Accumulator::default(); N_MODES],
+            trips: 0,
+            last: TripAssessment::default(),
+        }
+    }
+
+    /// Updates the re-identification with one trip and forms its statistics.
+    fn statistics(&mut self, cfg: &RiskConfig, t: &TripEvidence) -> TripStatistics {
+        let forget = cfg.forgetting();
+        // The regression residual variance, tracked with the same horizon, from the error
+        // of the estimate before this trip (a prediction error, so a fault inflates it late).
+        if let Some((theta, _)) = self.rls.estimate(1.0) {
+            self.s2 = forget * self.s2 + (1.0 - forget) * t.fit_error(&theta);
+        }
+        self.rls.update(t, forget);
+        let n = f64::from(t.n.max(1));
+        let z_u = t.mean_e_u / (cfg.trip_spread_u[0] + cfg.trip_spread_u[1] / n).sqrt();
+        let z_f = t.mean_e_f / (cfg.trip_spread_f[0] + cfg.trip_spread_f[1] / n).sqrt();
+        let e_trip = if z_f.is_finite() {
+            ((z_u * z_u + z_f * z_f) / 2.0).sqrt()
+        } else {
+            z_u.abs()
+        };
+        let mut e = if e_trip.is_finite() { e_trip } else { 0.0 };
+        let mut c_modes = [0.0; N_MODES];
+        let a = &mut self.last;
+        a.e_trip = e_trip;
+        if let Some((theta, var)) = self.rls.estimate(self.s2) {
+            for m in 0..N_MODES {
+                a.drift[m] = theta[m] - cfg.healthy_coef[m];
+                a.drift_se[m] = var[m].sqrt();
+                let z = a.drift[m] / (var[m] + cfg.drift_sd[m] * cfg.drift_sd[m]).sqrt();
+                a.z[m] = z.max(0.0);
+                c_modes[m] = a.z[m].ln_1p();
+                e = e.max(a.z[m]);
+            }
+        } else {
+            a.drift = [f64::NAN; N_MODES];
+            a.drift_se = [f64::NAN; N_MODES];
+            a.z = [0.0; N_MODES];
+        }
+        TripStatistics {
+            c: e.ln_1p(),
+            c_modes,
+            e_trip,
+        }
+    }
+
+    /// Takes one trip of machine evidence (callers pass only plausible trips) and returns the
+    /// updated assessment.
+    pub fn push(&mut self, cfg: &RiskConfig, t: &TripEvidence) -> TripAssessment {
+        if !t.usable(cfg) {
+            return self.last;
+        }
+        let s = self.statistics(cfg, t);
+        self.combined.step(s.c, cfg.tau, cfg);
+        for m in 0..N_MODES {
+            self.modes[m].step(s.c_modes[m], cfg.tau_modes[m], cfg);
+        }
+        self.trips += 1;
+        self.last.risk = self.combined.r;
+        self.last.risk_modes = [self.modes[0].r, self.modes[1].r, self.modes[2].r];
+        self.last
+    }
+}
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::*;
+    use crate::residual::tests::{row, test_model};
+
+    /// A fault or drift as a voltage residual added to each moving sample.
+    pub(crate) type Injection<'a> = &'a dyn Fn(f64, &[f64; N_MODES]) -> f64;
+
+    /// Synthetic trips: S-shaped speed profile, random load and direction, white noise of
+    /// σ_U on the voltage, a daily ±3 % swing of Kd (thermal), plus `fault(t, signature)`.
+    pub(crate) fn synthetic_trips(
+        model: &FittedModel,
+        seed: u64,
+        days: f64,
+        t0: f64,
+        fault: Injection,
+    ) -> Vec<TripEvidence> {
+        let mut rng = Rng::new(seed);
+        let mut out = Vec::new();
+        let mut t = t0;
+        let sigma = model.scales.sigma_u_v;
+        while t < t0 + days * 86_400.0 {
+            t += rng.uniform(60.0, 400.0);
+            let s = if rng.uniform(0.0, 1.0) < 0.5 {
+                1.0
+            } else {
+                -1.0
+            };
+            let lambda = rng.uniform(0.0, 0.9);
+            let cruise = (rng.uniform(1.0, 14.0)) as usize;
+            let mut acc = TripAccumulator::default();
+            let profile: Vec<(f64, f64, Phase)> = [
+                (0.6, 0.8, Phase::Accelerating),
+                (1.4, 0.6, Phase::Accelerating),
+            ]
+            .into_iter()
+            .chain(std::iter::repeat((1.75, 0.0, Phase::Cruising)).take(cruise))
+            .chain([
+                (1.3, -0.6, Phase::Decelerating),
+                (0.5, -0.8, Phase::Decelerating),
+            ])
+            .collect();
+            for (i, (speed, acc_mag, phase)) in profile.into_iter().enumerate() {
+                let time = t + i as f64;
+                let mut x = row(model, time, s * speed, lambda, s * acc_mag, 0.0);
+                x.phase = phase;
+                let p = model.predict(&x);
+                let sig = signature(model, &x, p.f_pred);
+                let thermal =
+                    0.03 * (2.0 * std::f64::consts::PI * time / 86_400.0).sin() * sig[MOTOR];
+                x.voltage += thermal + fault(time, &sig) + sigma * rng.normal();
+                let p = model.predict(&x);
+                let r = Residuals::from_prediction(model, &x, &p);
+                acc.push(model, &x, &p, &r);
+            }
+            out.extend(acc.finish(true));
+            t += 20.0;
+        }
+        out
+    }
+
+    pub(crate) fn calibrated(model: &FittedModel) -> RiskConfig {
+        let healthy = synthetic_trips(model, 11, 8.0, 0.0, &|_, _| 0.0);
+        let settings = CalibrationSettings {
+            years: 1.0,
+            ..CalibrationSettings::default()
+        };
+        RiskConfig::calibrate(&healthy, BaselineLimits::default(), &settings)
+            .expect("synthetic healthy trips suffice")
+    }
+
+    fn run(cfg: &RiskConfig, trips: &[TripEvidence]) -> Vec<TripAssessment> {
+        let mut tr = RiskTracker::new(cfg);
+        trips.iter().map(|t| tr.push(cfg, t)).collect()
+    }
+
+    fn first_advisory(
+        cfg: &RiskConfig,
+        a: &[TripAssessment],
+        trips: &[TripEvidence],
+    ) -> Option<f64> {
+        a.iter()
+            .zip(trips)
+            .find(|(a, _)| a.risk >= cfg.advisory)
+            .map(|(_, t)| t.start)
+    }
+
+    #[test]
+    fn inverse_of_a_spd_matrix_is_exact() {
+        let p = [4.0, 1.0, 0.5, 3.0, 0.2, 2.0];
+        let inv = spd_inverse(&p).unwrap();
+        let a = unpack(&p);
+        for i in 0..3 {
+            for j in 0..3 {
+                let v: f64 = (0..3).map(|k| a[i][k] * inv[k][j]).sum();
+                assert!((v - f64::from(u8::from(i == j))).abs() < 1e-12);
+            }
+        }
+        assert!(
+            spd_inverse(&[1.0, 1.0, 0.0, 1.0, 0.0, 1.0]).is_none(),
+            "singular"
+        );
+    }
+
+    #[test]
+    fn regression_recovers_injected_coefficients() {
+        let m = test_model();
+        let trips = synthetic_trips(&m, 3, 2.0, 0.0, &|_, x| {
+            0.10 * x[MOTOR] + 0.25 * x[FRICTION] + 0.5 * x[BRAKE]
+        });
+        let mut rls = Rls::default();
+        for t in &trips {
+            rls.update(t, 1.0);
+        }
+        let (theta, _) = rls.estimate(1.0).unwrap();
+        // The thermal swing averages out over two whole days.
+        assert!((theta[MOTOR] - 0.10).abs() < 0.01, "{theta:?}");
+        assert!((theta[FRICTION] - 0.25).abs() < 0.05, "{theta:?}");
+        assert!((theta[BRAKE] - 0.5).abs() < 0.1, "{theta:?}");
+    }
+
+    #[test]
+    fn a_healthy_sequence_stays_normal() {
+        let m = test_model();
+        let cfg = calibrated(&m);
+        // Thirty new healthy days, other seed, including the ±3 % daily Kd swing.
+        let trips = synthetic_trips(&m, 99, 30.0, 0.0, &|_, _| 0.0);
+        let a = run(&cfg, &trips);
+        let max = a.iter().map(|a| a.risk).fold(0.0, f64::max);
+        assert!(
+            max < cfg.advisory,
+            "healthy risk {max} reached the advisory {}",
+            cfg.advisory
+        );
+        let report = cfg.calibration.as_ref().unwrap();
+        assert!(
+            report.validated_false_advisories_per_year <= report.target_false_advisories_per_year,
+            "{report:?}"
+        );
+    }
+
+    #[test]
+    fn slow_drift_is_not_absorbed_by_the_boundary() {
+        // Friction creeps up linearly to +30 % over 20 days. A boundary over the recent window
+        // would rise with it; the healthy boundary does not, so evidence keeps accumulating.
+        let m = test_model();
+        let cfg = calibrated(&m);
+        let days = 20.0;
+        let ramp = move |t: f64, x: &[f64; N_MODES]| 0.30 * (t / (days * 86_400.0)) * x[FRICTION];
+        let trips = synthetic_trips(&m, 5, days, 0.0, &ramp);
+        let a = run(&cfg, &trips);
+        let first = first_advisory(&cfg, &a, &trips).expect("the drift must raise an advisory");
+        assert!(
+            first < 0.8 * days * 86_400.0,
+            "advisory only at day {}",
+            first / 86_400.0
+        );
+        // Once found, the drift stays found: the last fifth of the ramp is all above advisory.
+        let tail = &a[a.len() * 4 / 5..];
+        assert!(
+            tail.iter().all(|a| a.risk >= cfg.advisory),
+            "risk fell back while the drift grew"
+        );
+    }
+
+    #[test]
+    fn a_step_in_the_voltage_residual_raises_risk_and_names_friction() {
+        // A constant +k·σ on every moving sample looks like more friction: the same extra
+        // force in both directions at every load.
+        let m = test_model();
+        let cfg = calibrated(&m);
+        let k = 1.0 * m.scales.sigma_u_v;
+        let trips = synthetic_trips(&m, 6, 6.0, 0.0, &|t, _| if t > 86_400.0 { k } else { 0.0 });
+        let a = run(&cfg, &trips);
+        let last = a.last().unwrap();
+        assert!(
+            last.risk >= cfg.advisory,
+            "{} < {}",
+            last.risk,
+            cfg.advisory
+        );
+        let q: Vec<f64> = (0..N_MODES)
+            .map(|i| last.risk_modes[i] / cfg.advisory_modes[i])
+            .collect();
+        assert!(
+            q[FRICTION] > cfg.dominance * q[MOTOR].max(q[BRAKE]),
+            "{q:?}"
+        );
+        assert!(a
+            .iter()
+            .zip(&trips)
+            .filter(|(_, t)| t.start < 86_400.0)
+            .all(|(a, _)| a.risk < cfg.advisory));
+    }
+
+    #[test]
+    fn load_proportional_residual_raises_motor() {
+        let m = test_model();
+        let cfg = calibrated(&m);
+        let trips = synthetic_trips(&m, 7, 6.0, 0.0, &|t, x| {
+            if t > 86_400.0 {
+                0.10 * x[MOTOR]
+            } else {
+                0.0
+            }
+        });
+        let last = *run(&cfg, &trips).last().unwrap();
+        assert!(last.risk >= cfg.advisory);
+        assert!(
+            (last.drift[MOTOR] - 0.10).abs() < 0.03,
+            "Kd drift {}",
+            last.drift[MOTOR]
+        );
+        let q: Vec<f64> = (0..N_MODES)
+            .map(|i| last.risk_modes[i] / cfg.advisory_modes[i])
+            .collect();
+        assert!(
+            q[MOTOR] > cfg.dominance * q[FRICTION].max(q[BRAKE]),
+            "{q:?}"
+        );
+    }
+
+    #[test]
+    fn asymmetric_residual_raises_brake_not_friction() {
+        // Drag only going down or decelerating: the brake's signature, not friction's.
+        let m = test_model();
+        let cfg = calibrated(&m);
+        let trips = synthetic_trips(&m, 8, 6.0, 0.0, &|t, x| {
+            if t > 86_400.0 {
+                0.5 * x[BRAKE]
+            } else {
+                0.0
+            }
+        });
+        let last = *run(&cfg, &trips).last().unwrap();
+        assert!(last.risk >= cfg.advisory);
+        let q: Vec<f64> = (0..N_MODES)
+            .map(|i| last.risk_modes[i] / cfg.advisory_modes[i])
+            .collect();
+        assert!(
+            q[BRAKE] > cfg.dominance * q[FRICTION].max(q[MOTOR]),
+            "{q:?}"
+        );
+        assert!(
+            last.drift[FRICTION] < 0.1,
+            "friction drift {}",
+            last.drift[FRICTION]
+        );
+    }
+
+    #[test]
+    fn calibration_refuses_too_few_trips() {
+        let m = test_model();
+        let trips = synthetic_trips(&m, 1, 0.05, 0.0, &|_, _| 0.0);
+        assert!(trips.len() < 30);
+        let err = RiskConfig::calibrate(
+            &trips,
+            BaselineLimits::default(),
+            &CalibrationSettings::default(),
+        )
+        .unwrap_err();
+        assert!(err.to_string().contains("30 healthy trips"), "{err}");
+    }
+}
+#[cfg(test)]
+mod scratch {
+    use super::tests::*;
+    use super::*;
+    use crate::residual::tests::test_model;
+    #[test]
+    fn scratch_print() {
+        let m = test_model();
+        let cfg = calibrated(&m);
+        eprintln!("{cfg:#?}");
+        let h = synthetic_trips(&m, 99, 30.0, 0.0, &|_, _| 0.0);
+        let mut tr = RiskTracker::new(&cfg);
+        let mut mx = 0.0f64;
+        let mut mxm = [0.0f64; 3];
+        for t in &h {
+            let a = tr.push(&cfg, t);
+            mx = mx.max(a.risk);
+            for i in 0..3 {
+                mxm[i] = mxm[i].max(a.risk_modes[i]);
+            }
+        }
+        eprintln!("healthy 30d trips {} max risk {mx} modes {mxm:?}", h.len());
+        for (name, k) in [("motor", 0usize), ("brake", 1), ("fric", 2)] {
+            let days = 20.0;
+            let target = [0.10, 0.5, 0.25][k];
+            let f = move |t: f64, x: &[f64; 3]| target * (t / (days * 86_400.0)) * x[k];
+            let trips = synthetic_trips(&m, 5, days, 0.0, &f);
+            let mut tr = RiskTracker::new(&cfg);
+            let mut first = None;
+            for t in &trips {
+                let a = tr.push(&cfg, t);
+                if first.is_none() && a.risk >= cfg.advisory {
+                    first = Some((t.start / 86400.0, a));
+                }
+            }
+            eprintln!(
+                "{name} ramp to {target} over {days} d: first advisory {:?}",
+                first.map(|(d, a)| (
+                    d,
+                    d / days * target,
+                    crate::alarm::attribute(&a.risk_modes, &cfg),
+                    a.drift
+                ))
+            );
+        }
+    }
+}

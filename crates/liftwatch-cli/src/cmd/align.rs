@@ -1,16 +1,93 @@
-//! `liftwatch align` (in progress).
+//! `liftwatch align`: raw `time,signal,value` telemetry (or an aligned file) to a uniform
+//! step, written as DATA.md §2. Stages 1-2 of the pipeline: ingest, then align.
+//!
+//! The output goes to a temporary file beside `--out`, renamed over it only when
+//! alignment succeeded, so a failed run leaves no output file behind.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
+
+use anyhow::Context as _;
+use liftwatch::align::{align_file, AlignConfig, AlignedFileSink};
 
 /// Flags of `liftwatch align`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// Input file.
+    /// Telemetry to align: raw `time,signal,value` or an aligned CSV.
     #[arg(long)]
-    pub input: Option<PathBuf>,
+    pub input: PathBuf,
+    /// Aligned CSV to write (`time,speed,direction,voltage,load,door,floor[,current]`).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Uniform step of the output (s).
+    #[arg(long, default_value_t = 1.0)]
+    pub step: f64,
+    /// Longest gap between two readings that is still interpolated or held (s).
+    #[arg(long = "gap-limit", default_value_t = 5.0)]
+    pub gap_limit: f64,
+    /// How far out of time order rows may come and still be streamed (s); later rows
+    /// make the whole file be sorted in memory.
+    #[arg(long = "reorder-window", default_value_t = 600.0)]
+    pub reorder_window: f64,
 }
 
-/// Runs `align`.
-pub fn run(_args: Args) -> anyhow::Result<()> {
-    anyhow::bail!("align is not built yet")
+/// Removes the temporary output unless the run succeeded.
+struct TempFile {
+    path: PathBuf,
+    keep: bool,
+}
+
+impl Drop for TempFile {
+    fn drop(&mut self) {
+        if !self.keep {
+            let _ = std::fs::remove_file(&self.path);
+        }
+    }
+}
+
+/// `dir/.name.<pid>.tmp` beside `out`, so the final rename stays on one file system.
+fn temp_path(out: &Path) -> anyhow::Result<PathBuf> {
+    let name = out
+        .file_name()
+        .with_context(|| format!("--out {}: not a file name", out.display()))?;
+    let dir = out
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    Ok(dir.join(format!(
+        ".{}.{}.tmp",
+        name.to_string_lossy(),
+        std::process::id()
+    )))
+}
+
+/// The library error as one anyhow message. `Error::Io` already prints its source in
+/// its message, so keeping it as a cause would print the OS error twice under `{:#}`.
+fn flat(err: liftwatch::Error) -> anyhow::Error {
+    anyhow::anyhow!("{err}")
+}
+
+/// Runs `align`: ingest and align `--input`, write `--out`, one warning and one summary line.
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let cfg = AlignConfig::default()
+        .with_step(args.step)
+        .and_then(|c| c.with_gap_limit(args.gap_limit))
+        .and_then(|c| c.with_reorder_window(args.reorder_window))
+        .map_err(flat)?;
+    let mut tmp = TempFile {
+        path: temp_path(&args.out)?,
+        keep: false,
+    };
+    let cannot_write = || format!("cannot write {}", args.out.display());
+    let mut sink = AlignedFileSink::create(&tmp.path)
+        .map_err(flat)
+        .with_context(cannot_write)?;
+    let report = align_file(&args.input, &cfg, &mut sink).map_err(flat)?;
+    sink.finish().map_err(flat).with_context(cannot_write)?;
+    std::fs::rename(&tmp.path, &args.out).with_context(cannot_write)?;
+    tmp.keep = true;
+    if let Some(w) = report.warning() {
+        eprintln!("warning: {}: {w}", args.input.display());
+    }
+    eprintln!("{}: {}", args.out.display(), report.summary());
+    Ok(())
 }

@@ -57,13 +57,19 @@ fn parse_value(field: &[u8]) -> Value {
     }
 }
 
-fn shown(field: &[u8]) -> String {
+/// A field as shown in a message: at most 40 characters, control characters as `?`
+/// so that the message stays on one line.
+pub(crate) fn shown(field: &[u8]) -> String {
     let s = String::from_utf8_lossy(field);
+    let mut out: String = s
+        .chars()
+        .take(40)
+        .map(|c| if c.is_control() { '?' } else { c })
+        .collect();
     if s.chars().count() > 40 {
-        format!("{}...", s.chars().take(40).collect::<String>())
-    } else {
-        s.into_owned()
+        out.push_str("...");
     }
+    out
 }
 
 fn time_reason(field: &[u8], err: TimeError, form: Option<TimeForm>) -> String {

@@ -311,13 +311,13 @@ impl IngestReport {
 
     /// Counts a row of an unknown signal name.
     pub(crate) fn unknown(&mut self, name: &[u8]) {
-        let name = String::from_utf8_lossy(name);
-        if let Some(c) = self.unknown_signals.get_mut(name.as_ref()) {
+        let name = self::csv::shown(name);
+        if let Some(c) = self.unknown_signals.get_mut(&name) {
             *c += 1;
             return;
         }
         let key = if self.unknown_signals.len() < KEPT_UNKNOWN_NAMES {
-            name.chars().take(40).collect()
+            name
         } else {
             "(others)".to_string()
         };

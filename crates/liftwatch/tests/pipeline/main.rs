@@ -1,2 +1,3 @@
 //! Integration tests of the pipeline, one module per stage.
 mod sim;
+mod align;

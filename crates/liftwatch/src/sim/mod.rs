@@ -23,8 +23,8 @@
 //! - car mass 1.0-1.4·M_r (manufacturers' catalogues: a 1000 kg car weighs 1000-1400 kg);
 //!   platform above the load cell 15-30 % of it;
 //! - counterweight ratio q 0.40-0.50 (EN 81 practice: balance 40-50 % of rated load);
-//! - suspension ropes 1.6-2.8 kg/m per tonne of rated load, 1:1 roping (e.g. six 10-13 mm
-//!   ropes at 0.35-0.6 kg/m each for 1000 kg), no compensation chain, so the imbalance
+//! - suspension ropes 1.2-2.4 kg/m per tonne of rated load, 1:1 roping (e.g. five to seven
+//!   8-10 mm ropes at 0.23-0.35 kg/m each for 1000 kg), no compensation chain, so the imbalance
 //!   μ·(H − 2x) changes sign at mid-travel; travelling cable 0.4-1.0 kg/m hanging from mid-shaft;
 //!   sheave overhead 3.5-5 m;
 //! - rotating inertia (gearless sheave and rotor, J/r²) 6-14 % of car plus counterweight,
@@ -43,7 +43,10 @@
 //!   constant 30-60 min; copper +0.39 %/K, so Kd moves by about ±3 % over a day
 //!   (healthy non-stationarity that must not raise alarms);
 //! - sensors: speed noise 3-7 mm/s, 1 mm/s steps; voltage noise 0.6-1.2 V, steps 0.1, 0.25
-//!   or 0.5 V; load-cell noise 0.3-0.7 %, 1 % steps; 10-40 ms clock jitter, 0-80 ms latency.
+//!   or 0.5 V; load-cell noise 0.3-0.7 %, 1 % steps; 10-40 ms clock jitter, 0-50 ms latency
+//!   (a drive value read over a fieldbus is up to one bus cycle old; at 0.8 m/s² the back-EMF
+//!   ramps at ~100 V/s, so latency alone shifts a voltage sample taken while accelerating by
+//!   a few volts, a learnable function of a and direction).
 //!
 //! Traffic is documented in [`traffic`], degradations in [`scenario`]. Door cycle at every stop
 //! (centre-opening doors, catalogue timings): opening 1.5-2.5 s, fully open 3-6 s plus
@@ -231,6 +234,9 @@ pub struct SimSummary {
     pub moving_s: f64,
     /// Mean true load ratio over time in motion (1).
     pub mean_load_ratio_moving: f64,
+    /// Mean rope and travelling-cable imbalance over time in motion (kg): what a fit with a
+    /// position-free Δm absorbs on top of `parameters.delta_m` (the mid-travel value).
+    pub mean_imbalance_moving_kg: f64,
     /// Lowest and highest thermal factor of Kd seen at the grid instants.
     pub kd_thermal_range: (f64, f64),
 }
@@ -438,6 +444,7 @@ struct Engine<'a, S: SimSink> {
     stuck_speed: Option<f64>,
     summary: SimSummary,
     load_time: f64,
+    imbalance_time: f64,
 }
 
 impl<'a, S: SimSink> Engine<'a, S> {
@@ -500,6 +507,7 @@ impl<'a, S: SimSink> Engine<'a, S> {
                 ..SimSummary::default()
             },
             load_time: 0.0,
+            imbalance_time: 0.0,
         }
     }
 
@@ -540,6 +548,9 @@ impl<'a, S: SimSink> Engine<'a, S> {
         } else {
             0.0
         };
+        if self.summary.moving_s > 0.0 {
+            self.summary.mean_imbalance_moving_kg = self.imbalance_time / self.summary.moving_s;
+        }
         Ok(self.summary.clone())
     }
 
@@ -705,6 +716,7 @@ impl<'a, S: SimSink> Engine<'a, S> {
                 let fx = self.cfg.scenario.effects_at(mid, self.p.f_c);
                 self.summary.moving_s += dt;
                 self.load_time += dt * self.load_kg / self.p.rated.rated_load_kg;
+                self.imbalance_time += dt * self.p.imbalance_kg(x);
                 self.p
                     .heating_k(self.p.force(x, v, a, self.load_kg, &fx), true)
             } else {

@@ -145,7 +145,7 @@ impl SimElevator {
             .counterweight_ratio
             .unwrap_or_else(|| rng.uniform(0.40, 0.50));
         let cw = car + q * m_r;
-        let rope_kg_per_m = m_r / 1000.0 * rng.uniform(1.6, 2.8);
+        let rope_kg_per_m = m_r / 1000.0 * rng.uniform(1.2, 2.4);
         let rotating_mass_kg = rng.uniform(0.06, 0.14) * (car + cw);
         let f_c = rng.uniform(0.010, 0.020) * (car + m_r) * G;
         let c_visc = rng.uniform(0.3, 0.7) * f_c / v_r;
@@ -194,7 +194,7 @@ impl SimElevator {
                 load_noise_pct: rng.uniform(0.3, 0.7),
                 load_quant_pct: 1.0,
                 jitter_s: rng.uniform(0.01, 0.04),
-                latency_s: std::array::from_fn(|_| rng.uniform(0.0, 0.08)),
+                latency_s: std::array::from_fn(|_| rng.uniform(0.0, 0.05)),
                 clock_ppm: std::array::from_fn(|_| rng.uniform(-100.0, 100.0)),
             },
         };

@@ -120,7 +120,8 @@ pub fn fit(
 ) -> Result<FitOutcome> {
     let feature_cfg = crate::features::fit_load_cell(series, &FeatureConfig::for_elevator(elevator))?;
     let features = crate::features::extract(series, &feature_cfg);
-    let (obs, _, n_rest) = train::observations(&features.rows, cfg.standstill_share)?;
+    let prior = PhysParams::prior_centre(elevator);
+    let (obs, _, n_rest) = train::observations_weighted(&features.rows, cfg.standstill_share, prior.ke, 0.005 * elevator.rated_voltage())?;
     let trained = train::train(&obs, elevator, cfg, observer)?;
     let mut summary = trained.summary;
     summary.standstill_samples = n_rest;

@@ -16,7 +16,9 @@
 //!
 //! λ is the reading at standstill with the door closed (the mean of those readings since the
 //! door last opened, which averages the cell's noise), held through the trip: while moving the
-//! cell also feels inertia, and the raw moving reading biases the identified mass.
+//! cell also feels inertia, and the raw moving reading biases the identified mass. The door
+//! often closes less than a second before the start; when no door-closed standstill sample
+//! falls in between, the last standstill reading (door still reported open) stands in.
 //!
 //! The extraction is a streaming step, [`FeatureTracker::push`], that emits the row of the sample
 //! [`LAG`] steps back once its successor is known; [`extract`] is a loop over it, so a batch run
@@ -274,6 +276,9 @@ enum Door {
 struct Pre {
     #[serde(with = "exact")]
     time: f64,
+    /// Speed magnitude (m/s), NaN when missing.
+    #[serde(with = "exact")]
+    speed: f64,
     /// Signed velocity, NaN when the speed or its sign is missing.
     #[serde(with = "exact")]
     v: f64,
@@ -361,6 +366,12 @@ pub struct FeatureTracker {
     /// Number of readings in the mean, capped at the window.
     #[serde(with = "exact")]
     ref_n: f64,
+    /// The last load reading at standstill whatever the door, and its time: the reference
+    /// when no door-closed reading came between the door closing and the start.
+    #[serde(with = "exact")]
+    rest_load: f64,
+    #[serde(with = "exact")]
+    rest_load_time: f64,
     trip: Option<TripAcc>,
     next_trip: u32,
     /// The trip ended by the last row returned; not part of the saved state (take it first).
@@ -381,6 +392,8 @@ impl FeatureTracker {
             rest_floor: f64::NAN,
             ref_mean: f64::NAN,
             ref_n: 0.0,
+            rest_load: f64::NAN,
+            rest_load_time: f64::NAN,
             trip: None,
             next_trip: 0,
             ended: None,
@@ -396,6 +409,13 @@ impl FeatureTracker {
     /// successor is known.
     pub fn push(&mut self, s: &Sample) -> Option<FeatureRow> {
         let next = self.preprocess(s);
+        // A start whose direction signal comes a sample late: the successor's sign tells it.
+        if let Some(c) = self.cur.as_mut() {
+            if c.v.is_nan() && c.speed.is_finite() && next.s != 0 && follows(c, &next) {
+                c.v = f64::from(next.s) * c.speed;
+                c.s = next.s;
+            }
+        }
         let row = self.cur.map(|c| self.row(self.prev, c, Some(next)));
         self.prev = self.cur;
         self.cur = Some(next);
@@ -431,8 +451,10 @@ impl FeatureTracker {
     ///
     /// The sign comes from the direction signal; when it is missing or 0 while the car moves,
     /// from (in this order) the previous moving sample, a direction signal seen within
-    /// [`DIR_MEMORY_S`], the floor indicator's change since the last standstill. With none of
-    /// them the velocity is missing. At rest an unknown sign does not matter (|v| is below the
+    /// [`DIR_MEMORY_S`], the floor indicator's change since the last standstill; failing these,
+    /// [`FeatureTracker::push`] takes the sign of the successor once it arrives (the direction
+    /// signal, held by the alignment, often turns a sample after the speed). With none of them
+    /// the velocity is missing. At rest an unknown sign does not matter (|v| is below the
     /// threshold) and +1 is used.
     fn preprocess(&mut self, x: &Sample) -> Pre {
         let thr = self.cfg.moving_threshold_mps;
@@ -506,10 +528,15 @@ impl FeatureTracker {
         // The reference: readings at true standstill (well below the motion threshold, so not
         // the first instant of a start) with the door not known to be open; an open door
         // means the load is changing and the mean restarts.
+        let still = speed.is_finite() && speed <= 0.2 * thr && load.is_finite();
+        if still {
+            self.rest_load = load;
+            self.rest_load_time = x.time;
+        }
         if door == Door::Open {
             self.ref_mean = f64::NAN;
             self.ref_n = 0.0;
-        } else if speed.is_finite() && speed <= 0.2 * thr && load.is_finite() {
+        } else if still {
             self.ref_n = (self.ref_n + 1.0).min(L_REF_WINDOW);
             let m = if self.ref_mean.is_finite() {
                 self.ref_mean
@@ -520,6 +547,7 @@ impl FeatureTracker {
         }
         Pre {
             time: x.time,
+            speed,
             v,
             s,
             load,
@@ -619,8 +647,13 @@ impl FeatureTracker {
         let speed = c.v.abs();
         if self.trip.is_none() {
             let p = p.filter(Pre::at_rest)?;
+            // The door often closes less than a second before the start, so at 1 Hz there may
+            // be no door-closed standstill reading: then the last standstill reading (door
+            // still reading open or closing, riders already aboard) stands in.
             let l_ref = if self.ref_n > 0.0 {
                 self.ref_mean
+            } else if (0.0..=MAX_STEP_S).contains(&(c.time - self.rest_load_time)) {
+                self.rest_load
             } else {
                 f64::NAN
             };
@@ -1024,6 +1057,17 @@ mod tests {
         bits(a) == bits(b) && a.s == b.s && a.phase == b.phase && a.trip == b.trip
     }
 
+    /// True when two rows are equal as numbers (NaN equals NaN, −0 equals 0): the sign of v at
+    /// rest is arbitrary when the direction is unknown.
+    fn equal_row(a: &FeatureRow, b: &FeatureRow) -> bool {
+        let nums = |r: &FeatureRow| [r.time, r.v, r.lambda, r.a_v, r.a_l, r.a, r.voltage];
+        let same = nums(a)
+            .iter()
+            .zip(nums(b))
+            .all(|(x, y)| *x == y || (x.is_nan() && y.is_nan()));
+        same && a.s == b.s && a.phase == b.phase && a.trip == b.trip
+    }
+
     #[test]
     fn fused_acceleration_beats_the_speed_path_on_an_s_curve() {
         let cfg = config();
@@ -1242,6 +1286,32 @@ mod tests {
         let f = extract(&d.series, &config());
         assert_eq!(f.trips, f_ref.trips);
         assert!(f.rows.iter().zip(&f_ref.rows).all(|(a, b)| same_row(a, b)));
+    }
+
+    #[test]
+    fn a_direction_signal_a_sample_late_still_starts_the_trip() {
+        let mut d = day(&[(5, 0.3), (2, 0.3)], 0.15, 8);
+        let f_ref = extract(&d.series, &config());
+        let starts: Vec<usize> = (1..d.series.len())
+            .filter(|&k| d.series.samples[k].speed > 0.05 && d.series.samples[k - 1].speed <= 0.05)
+            .collect();
+        assert_eq!(starts.len(), 2);
+        for k in starts {
+            d.series.samples[k].direction = 0.0;
+            d.series.samples[k - 1].direction = 0.0;
+        }
+        let f = extract(&d.series, &config());
+        assert_eq!(f.trips, f_ref.trips);
+        // The standstill row before such a start has no look-ahead for a_v (its successor's
+        // sign is not known yet); its a is 0 all the same.
+        for (a, b) in f.rows.iter().zip(&f_ref.rows) {
+            let b = if b.s == 0 {
+                FeatureRow { a_v: a.a_v, ..*b }
+            } else {
+                *b
+            };
+            assert!(equal_row(a, &b), "{a:?} != {b:?}");
+        }
     }
 
     #[test]

@@ -1,3 +1,4 @@
 //! Integration tests of the pipeline, one module per stage.
 mod sim;
+mod features;
 mod align;

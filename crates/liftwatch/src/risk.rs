@@ -9,10 +9,11 @@
 //!     x_motor = φ(s)·Kd·s·F_pred                coefficient = relative change of Kd
 //!     x_brake = φ(s)·Kd·F_c·1[s = −1 or decel]  coefficient = brake drag / F_c
 //!     x_fric  = φ(s)·Kd·(F_c + c·|v|)           coefficient = relative change of friction
-//!   z_m = (θ̂_m − θ0_m) / sqrt(SE_m² + σ_drift,m²),  z⁺_m = max(0, z_m)
-//!   e_k = max(e_trip, z⁺_motor, z⁺_brake, z⁺_fric)          combined evidence
-//!   c_k = ln(1 + e_k)                                       (per mode: c = ln(1 + z⁺_m))
-//!   x_k = max(0, c_k − τ)                                   τ = μ_c + 3·σ_c of the healthy fit
+//!   z_m = (θ̂_m − θ0_m) / max(σ_m, SE_m),  z⁺_m = max(0, z_m)
+//!                                   σ_m: healthy spread of θ̂_m in the fit, SE_m: standard error
+//!   c_k = ln(1 + e_trip),  c_m,k = ln(1 + z⁺_m)              compressed evidence per lens
+//!   x = max(0, c − τ) per lens                               τ = μ_c + 3·σ_c of the healthy fit
+//!   per mode m: x_m;  combined: x_k = max(x_trip, x_motor, x_brake, x_fric)
 //!   D_k = D_{k−1} + 1 if x_k > 0 else 0                     consecutive anomalous trips
 //!   R_k = γ·R_{k−1} + x_k·exp(κ·min(D_k, D_max))
 //! ```
@@ -187,13 +188,14 @@ pub struct RiskConfig {
     pub trip_spread_f: [f64; 2],
     /// θ0: healthy signature coefficients (motor, brake, friction) the drifts are measured from.
     pub healthy_coef: [f64; N_MODES],
-    /// σ_drift: healthy wander of the coefficients beyond estimation noise (thermal drift).
+    /// Healthy standard deviation of the re-identified coefficients after warm-up: estimation
+    /// noise and healthy wander (the thermal drift of the winding resistance shows here).
     pub drift_sd: [f64; N_MODES],
     /// Prior information of the re-identification (packed upper triangle of XᵀX, healthy).
     pub prior_info: [f64; 6],
     /// Healthy variance of the per-trip regression residual (V²).
     pub prior_s2: f64,
-    /// τ of the combined evidence (in c = ln(1 + e) units).
+    /// τ of the trip-level evidence c = ln(1 + e_trip).
     pub tau: f64,
     /// τ of each mode.
     pub tau_modes: [f64; N_MODES],
@@ -254,7 +256,9 @@ pub struct CalibrationSettings {
     /// Years of healthy operation the bootstrap simulates; the advisory threshold is the
     /// highest risk reached in them, i.e. the level exceeded once in this many years.
     pub years: f64,
-    /// Length of a bootstrap block (s): a few hours keep the slow thermal drift's autocorrelation.
+    /// Length of a bootstrap block (s). A day keeps the daily thermal cycle of the winding
+    /// resistance whole: with blocks of a few hours the bootstrap chains afternoons (warm
+    /// winding, Kd up) into "weeks" no real elevator sees and sets the thresholds far too high.
     pub block_s: f64,
     /// Seed of the bootstrap.
     pub seed: u64,
@@ -269,7 +273,7 @@ impl Default for CalibrationSettings {
     fn default() -> Self {
         CalibrationSettings {
             years: 10.0,
-            block_s: 4.0 * 3600.0,
+            block_s: 86_400.0,
             seed: 1,
             target_false_advisories_per_year: 1.0,
             alarm_factor: 4.0,
@@ -331,8 +335,8 @@ impl RiskConfig {
     ///
     /// Method: (1) the trip spread var(mean e) = a + b/n is fitted by least squares on the
     /// squared trip means; (2) the re-identification runs over the healthy trips, giving θ0
-    /// (mean of the estimates after warm-up) and σ_drift² = var(θ̂) − mean(SE²), the wander the
-    /// estimation noise does not explain (thermal drift of the winding resistance shows here);
+    /// (mean of the estimates after warm-up) and their healthy spread σ (estimation noise plus
+    /// the thermal drift of the winding resistance);
     /// (3) τ = μ_c + 3·σ_c of the healthy c (floored at ln 3: e below 2 is never anomalous);
     /// (4) a moving-block bootstrap draws blocks of `block_s` of consecutive healthy trips
     /// and runs the whole tracker over `years` of them at the healthy trip rate; the advisory
@@ -439,14 +443,13 @@ fn fit_spread(it: impl Iterator<Item = (f64, u32)>) -> [f64; 2] {
     }
 }
 
-/// Step 2 of the calibration: θ0, σ_drift, the prior information and s² from a healthy pass.
+/// Step 2 of the calibration: θ0, σ, the prior information and s² from a healthy pass.
 fn calibrate_drift(cfg: &mut RiskConfig, trips: &[TripEvidence]) {
     let forget = cfg.forgetting();
     let mut rls = Rls::default();
     let warmup = (cfg.forgetting_trips as usize / 2).min(trips.len() / 3);
     let mut sum = [0.0; N_MODES];
     let mut sum2 = [0.0; N_MODES];
-    let mut se2 = [0.0; N_MODES];
     let mut s2_sum = 0.0;
     let mut count = 0.0;
     for (k, t) in trips.iter().enumerate() {
@@ -459,29 +462,26 @@ fn calibrate_drift(cfg: &mut RiskConfig, trips: &[TripEvidence]) {
         if k < warmup {
             continue;
         }
-        let Some((theta, var)) = rls.estimate(1.0) else {
+        let Some((theta, _)) = rls.estimate(1.0) else {
             continue;
         };
         count += 1.0;
         for m in 0..N_MODES {
             sum[m] += theta[m];
             sum2[m] += theta[m] * theta[m];
-            se2[m] += var[m];
         }
     }
     if count < 2.0 {
         return;
     }
     cfg.prior_s2 = (s2_sum / count).max(1e-12);
-    // The variances above were computed with s² = 1; rescale them with the healthy s².
     for m in 0..N_MODES {
         let mean = sum[m] / count;
         let var = (sum2[m] / count - mean * mean).max(0.0);
-        let est = cfg.prior_s2 * se2[m] / count;
         cfg.healthy_coef[m] = mean;
         // A floor of 0.5 % (relative units) keeps a very clean record from declaring any
         // wander anomalous.
-        cfg.drift_sd[m] = (var - est).max(0.0).sqrt().max(0.005);
+        cfg.drift_sd[m] = var.sqrt().max(0.005);
     }
     cfg.prior_info = rls.a;
 }
@@ -862,15 +862,25 @@ pub struct Accumulator {
 impl Accumulator {
     /// One trip: x = max(0, c − τ), D, R = γ·R + x·exp(κ·min(D, D_max)); returns x.
     pub fn step(&mut self, c: f64, tau: f64, cfg: &RiskConfig) -> f64 {
-        let x = if c.is_finite() {
-            (c - tau).max(0.0)
-        } else {
-            0.0
-        };
+        let x = excess(c, tau);
+        self.add(x, cfg);
+        x
+    }
+
+    /// One trip with its excess x ≥ 0 already formed: D, R = γ·R + x·exp(κ·min(D, D_max)).
+    pub fn add(&mut self, x: f64, cfg: &RiskConfig) {
         self.d = if x > 0.0 { self.d.saturating_add(1) } else { 0 };
         let gain = (cfg.kappa * f64::from(self.d).min(cfg.d_max_trips)).exp();
         self.r = cfg.gamma * self.r + x * gain;
-        x
+    }
+}
+
+/// x = max(0, c − τ), zero for a missing c.
+fn excess(c: f64, tau: f64) -> f64 {
+    if c.is_finite() {
+        (c - tau).max(0.0)
+    } else {
+        0.0
     }
 }
 
@@ -949,7 +959,7 @@ impl RiskTracker {
         } else {
             z_u.abs()
         };
-        let mut e = if e_trip.is_finite() { e_trip } else { 0.0 };
+        let e = if e_trip.is_finite() { e_trip } else { 0.0 };
         let mut c_modes = [0.0; N_MODES];
         let a = &mut self.last;
         a.e_trip = e_trip;
@@ -957,10 +967,13 @@ impl RiskTracker {
             for m in 0..N_MODES {
                 a.drift[m] = theta[m] - cfg.healthy_coef[m];
                 a.drift_se[m] = var[m].sqrt();
-                let z = a.drift[m] / (var[m] + cfg.drift_sd[m] * cfg.drift_sd[m]).sqrt();
+                // Never less than the healthy spread, never less than the current standard
+                // error (which counts each trip as one observation: conservative when the
+                // residuals within a trip are not fully correlated, and large while the data
+                // are thin, e.g. one direction only).
+                let z = a.drift[m] / a.drift_se[m].max(cfg.drift_sd[m]);
                 a.z[m] = z.max(0.0);
                 c_modes[m] = a.z[m].ln_1p();
-                e = e.max(a.z[m]);
             }
         } else {
             a.drift = [f64::NAN; N_MODES];
@@ -981,10 +994,15 @@ impl RiskTracker {
             return self.last;
         }
         let s = self.statistics(cfg, t);
-        self.combined.step(s.c, cfg.tau, cfg);
+        // The combined risk takes the largest excess of any lens over its own boundary, so it
+        // rises for any mode and for trip-level deviations no signature explains.
+        let mut x = excess(s.c, cfg.tau);
         for m in 0..N_MODES {
-            self.modes[m].step(s.c_modes[m], cfg.tau_modes[m], cfg);
+            let xm = excess(s.c_modes[m], cfg.tau_modes[m]);
+            self.modes[m].add(xm, cfg);
+            x = x.max(xm);
         }
+        self.combined.add(x, cfg);
         self.trips += 1;
         self.last.risk = self.combined.r;
         self.last.risk_modes = [self.modes[0].r, self.modes[1].r, self.modes[2].r];
@@ -1301,5 +1319,32 @@ mod scratch {
                 ))
             );
         }
+    }
+}
+#[cfg(test)]
+mod scratch2 {
+    use super::*;
+    #[test]
+    #[ignore]
+    fn scratch_real() {
+        let model = crate::model::file::load(std::path::Path::new("/tmp/dw/m1.json")).unwrap();
+        let (series, _) = crate::align::read_series(std::path::Path::new(&std::env::var("SCR").unwrap()), &Default::default()).unwrap();
+        let f = crate::features::extract(&series, &model.features);
+        let ev = trip_evidence(&model, &f.rows);
+        let cfg = &model.risk;
+        let mut tr = RiskTracker::new(cfg);
+        let mut mx = 0.0f64;
+        for (k, t) in ev.iter().enumerate() {
+            let a = tr.push(cfg, t);
+            mx = mx.max(a.risk);
+            if k % 100 == 0 || (a.risk > 1.0 && k % 10 == 0) {
+                eprintln!("k {k} t {:.0} n {} e_trip {:.2} risk {:.2} modes {:.1?} drift {:.3?} se {:.3?} z {:.2?}", t.start, t.n, a.e_trip, a.risk, a.risk_modes, a.drift, a.drift_se, a.z);
+            }
+        }
+        eprintln!("max {mx}");
+        let mut mon = crate::monitor::Monitor::new(&model, crate::monitor::Method::Pinn);
+        let mut mxm = 0.0f64;
+        for x in &series.samples { if let Some(r) = mon.push(x) { mxm = mxm.max(r.risk); if let Some(e) = r.event { eprintln!("{}", e.to_json_line()); } } }
+        eprintln!("monitor max {mxm} trips {}", mon.state_ref().trips);
     }
 }

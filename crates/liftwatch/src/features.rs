@@ -216,7 +216,7 @@ pub struct Trip {
     pub from_floor: f64,
     /// Floor indicator at the standstill after the trip (NaN when missing).
     pub to_floor: f64,
-    /// λ: static load ratio held through the trip (NaN when no door-closed reading preceded it).
+    /// λ: static load ratio held through the trip (NaN when no standstill reading preceded it).
     pub load_ratio: f64,
     /// Largest |v| in the trip (m/s).
     pub peak_speed: f64,

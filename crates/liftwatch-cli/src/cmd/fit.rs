@@ -102,12 +102,13 @@ pub fn summary(m: &model::FittedModel, trips: usize, seconds: f64) -> String {
     );
     let _ = writeln!(s, "{:<27} {:>12} {:>11}  {:<6} {}", "parameter", "value", "std error", "unit", "decided by");
     for r in &f.parameters {
+        let se = r.std_error.map_or_else(|| "n/a".to_string(), |v| format!("{v:.5}"));
         let _ = writeln!(
             s,
-            "{:<27} {:>12.5} {:>11.5}  {:<6} {}",
+            "{:<27} {:>12.5} {:>11}  {:<6} {}",
             r.name,
             r.value,
-            r.std_error,
+            se,
             r.unit,
             if r.determined { "data" } else { "prior (weakly identifiable)" }
         );

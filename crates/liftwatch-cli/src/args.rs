@@ -24,4 +24,5 @@ pub enum Command {
     Fit(cmd::fit::Args),
     /// Watch telemetry with a fitted model: residuals, risk, levels, events.
     Monitor(cmd::monitor::Args),
+    Report(cmd::report::Args),
 }

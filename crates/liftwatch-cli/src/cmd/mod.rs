@@ -3,6 +3,7 @@
 pub mod align;
 pub mod fit;
 pub mod monitor;
+pub mod report;
 pub mod simulate;
 
 use crate::args::{Args, Command};
@@ -14,5 +15,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Command::Align(a) => align::run(a),
         Command::Fit(a) => fit::run(a),
         Command::Monitor(a) => monitor::run(a),
+        Command::Report(a) => report::run(a),
     }
 }

@@ -1,0 +1,66 @@
+//! `liftwatch report`: figures and an HTML page about one input, read with a fitted model
+//! (DATA.md §6).
+//!
+//! The slice of the pipeline: model file → aligned series (either input layout) → features →
+//! both monitors (the paper's method and the fixed-threshold baseline) → the report crate,
+//! which writes each figure as SVG and PNG and `index.html` into `--out`.
+
+use std::path::PathBuf;
+
+use anyhow::Context;
+use liftwatch::align::{read_series, AlignConfig};
+use liftwatch::model::file;
+use liftwatch::monitor::Method;
+use liftwatch_report::{monitor_rows, write_report, ReportInputs};
+
+/// Flags of `liftwatch report`.
+#[derive(Debug, clap::Args)]
+#[command(about = "Write figures (SVG and PNG) and an HTML report about telemetry, read with a fitted model")]
+pub struct Args {
+    /// Model file written by `fit`.
+    #[arg(long)]
+    pub model: PathBuf,
+    /// Telemetry to report on, raw `time,signal,value` or aligned.
+    #[arg(long)]
+    pub input: PathBuf,
+    /// Output directory (created if missing): figures as SVG and PNG, and index.html.
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+/// Runs `report` and prints the path of `index.html`.
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let model = file::load(&args.model).context("cannot use the model")?;
+    let (series, ingest) = read_series(&args.input, &AlignConfig::default())
+        .with_context(|| format!("cannot read {}", args.input.display()))?;
+    if ingest.bad_rows > 0 {
+        eprintln!(
+            "warning: {}: skipped {} bad rows",
+            args.input.display(),
+            ingest.bad_rows
+        );
+    }
+    eprintln!("report: {} samples from {}", series.len(), args.input.display());
+    let features = liftwatch::features::extract(&series, &model.features);
+    let pinn = monitor_rows(&model, &series, Method::Pinn);
+    let threshold = monitor_rows(&model, &series, Method::Threshold);
+    let events: Vec<_> = pinn.iter().filter_map(|r| r.event).collect();
+    let source = args.input.file_name().map_or_else(
+        || args.input.display().to_string(),
+        |n| n.to_string_lossy().into_owned(),
+    );
+    let inputs = ReportInputs {
+        model: &model,
+        series: &series,
+        features: &features,
+        pinn: &pinn,
+        threshold: &threshold,
+        events: &events,
+        source: &source,
+    };
+    let written = write_report(&args.out, &inputs)
+        .with_context(|| format!("cannot write the report to {}", args.out.display()))?;
+    let index = written.last().cloned().unwrap_or_else(|| args.out.join("index.html"));
+    println!("{}", index.display());
+    Ok(())
+}

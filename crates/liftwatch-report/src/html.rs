@@ -1,0 +1,68 @@
+//! `index.html`: the figures in order, each with its sentences; plain HTML and inline CSS, so
+//! the directory can be opened, copied or mailed as it is.
+
+use crate::figures::Section;
+use crate::ReportInputs;
+
+/// Escapes text for HTML element content and attribute values.
+pub(crate) fn escape(s: &str) -> String {
+    let mut out = String::with_capacity(s.len());
+    for ch in s.chars() {
+        match ch {
+            '&' => out.push_str("&amp;"),
+            '<' => out.push_str("&lt;"),
+            '>' => out.push_str("&gt;"),
+            '"' => out.push_str("&quot;"),
+            '\'' => out.push_str("&#39;"),
+            c => out.push(c),
+        }
+    }
+    out
+}
+
+const STYLE: &str = "body{font-family:'DejaVu Sans',Helvetica,Arial,sans-serif;max-width:1240px;margin:2em auto;\
+padding:0 1em;color:#222;line-height:1.5}h1{font-size:1.7em;margin-bottom:.2em}h2{font-size:1.3em;margin-top:2.2em;\
+border-bottom:1px solid #ccc;padding-bottom:.2em}img{width:100%;height:auto;border:1px solid #e4e4e4}\
+p.meta{color:#555}table{border-collapse:collapse;margin:.8em 0}td,th{border:1px solid #ccc;padding:.25em .7em;\
+text-align:right}td:first-child,th:first-child,td:last-child,th:last-child{text-align:left}th{background:#f2f2f2}\
+nav a{margin-right:1em}figure{margin:1em 0}figcaption{font-size:.9em;color:#555}";
+
+/// The page: title, data summary, a table of contents and one section per figure.
+pub(crate) fn page(inp: &ReportInputs, sections: &[Section]) -> String {
+    let m = inp.model;
+    let e = &m.elevator;
+    let mut h = String::new();
+    h.push_str("<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n");
+    h.push_str(&format!(
+        "<title>liftwatch report: {}</title>\n<style>{STYLE}</style>\n</head>\n<body>\n",
+        escape(inp.source)
+    ));
+    h.push_str(&format!("<h1>liftwatch report: {}</h1>\n", escape(inp.source)));
+    h.push_str(&format!(
+        "<p class=\"meta\">Elevator: rated load {} kg, rated speed {} m/s, {} floors. Model format version {}, \
+         fitted on {} moving samples. Each figure is also saved as PNG beside its SVG.</p>\n",
+        e.rated_load_kg, e.rated_speed_mps, e.floors, m.format_version, m.fit.moving_samples
+    ));
+    h.push_str("<nav>");
+    for s in sections {
+        h.push_str(&format!("<a href=\"#{}\">{}</a> ", s.figure.name, escape(&s.heading)));
+    }
+    h.push_str("</nav>\n");
+    for s in sections {
+        let name = &s.figure.name;
+        h.push_str(&format!("<h2 id=\"{name}\">{}</h2>\n", escape(&s.heading)));
+        h.push_str(&format!(
+            "<figure><img src=\"{name}.svg\" alt=\"{}\"><figcaption>{name}.svg (also <a href=\"{name}.png\">{name}.png</a>)</figcaption></figure>\n",
+            escape(&s.heading)
+        ));
+        for p in &s.text {
+            if p.starts_with("<table") || p.starts_with("Level changes") {
+                h.push_str(&format!("<div>{p}</div>\n"));
+            } else {
+                h.push_str(&format!("<p>{p}</p>\n"));
+            }
+        }
+    }
+    h.push_str("</body>\n</html>\n");
+    h
+}

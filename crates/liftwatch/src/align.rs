@@ -1070,7 +1070,6 @@ mod tests {
             &mut fsink,
         )
         .unwrap();
-        drop(fsink);
         let sink = sink.into_inner();
         assert_eq!(starts, vec![false, true]);
         assert_eq!(r.passes, 2);

@@ -153,7 +153,7 @@ mod tests {
         let mut form = None;
         assert_eq!(parse_time("garbage", &mut form), Err(TimeError::Unreadable));
         assert_eq!(form, None);
-        assert_eq!(parse_time("2026-03-01T00:00:00Z", &mut form).is_ok(), true);
+        assert!(parse_time("2026-03-01T00:00:00Z", &mut form).is_ok());
         assert_eq!(form, Some(TimeForm::Rfc3339));
         assert_eq!(
             parse_time("12.5", &mut form),

@@ -28,7 +28,7 @@
 //!   μ·(H − 2x) changes sign at mid-travel; travelling cable 0.4-1.0 kg/m hanging from mid-shaft;
 //!   sheave overhead 3.5-5 m;
 //! - rotating inertia (gearless sheave and rotor, J/r²) 6-14 % of car plus counterweight,
-//!   i.e. 170-400 kg for a 1000 kg car (J ≈ 5-15 kg·m² at r ≈ 0.2 m);
+//!   i.e. 150-450 kg for a 1000 kg car (J ≈ 6-18 kg·m² at r ≈ 0.2 m);
 //! - acceleration 0.6-1.0 m/s², jerk 0.8-1.5 m/s³ (ride-comfort practice, ISO 18738);
 //! - Coulomb friction 1-2 % of the weight of car plus rated load (guide shoes, rope bending),
 //!   up/down asymmetry ±5 %, Stribeck rise +20-40 % below 0.03-0.08 m/s; viscous
@@ -37,7 +37,7 @@
 //!   speed); the resistive drop Kd·F at the full-load motoring force (1 − q)·M_r·g is 5-9 % of
 //!   rated voltage; U0 = 1-3 % of rated voltage; α_down 0.80-0.95 (regeneration in the drive's
 //!   down direction is handled by a different current path);
-//! - winding thermal model: machine room 18-28 °C with a ±2-4 K daily swing (warmest at 15:00),
+//! - winding thermal model: machine room 18-28 °C with a ±1.5-3 K daily swing (warmest at 15:00),
 //!   winding rise 25-35 K at a continuous force of (1 − q)·M_r·g (elevator machines are sized
 //!   for starts per hour, so a steady travelling force leaves a wide thermal margin), time
 //!   constant 30-60 min; copper +0.39 %/K, so Kd moves by about ±3 % over a day
@@ -408,14 +408,10 @@ enum Motion<'c> {
     },
 }
 
-/// The dispatcher and the time loop.
+/// The dispatcher and the time loop (door and brake timings in the module docs).
 ///
-/// Door cycle at every stop (EN 81-20 centre-opening doors, catalogue timings): opening
-/// 1.5-2.5 s, fully open 3-6 s plus 0.8-1.5 s per rider leaving or entering, closing
-/// 2.0-3.5 s; the door signal is 1 from the start of opening to the end of closing. Before
-/// each trip the brake lifts and the drive magnetises for 0.5-1.2 s with the direction already
-/// set; after it the car levels and the brake drops for 0.3-0.8 s. The car parks at the lobby
-/// with probability 1/2 after 5 minutes idle elsewhere.
+/// Calls are served one direction at a time: riders are dropped off nearest first, waiting
+/// groups at a landing board when they go the car's way and fit in the rated load.
 struct Engine<'a, S: SimSink> {
     cfg: &'a SimConfig,
     p: &'a SimElevator,

@@ -1273,6 +1273,35 @@ mod tests {
     }
 
     #[test]
+    fn a_time_jump_in_a_trip_drops_it_without_a_spike() {
+        let mut d = day(&[(6, 0.3), (2, 0.5)], 0.15, 13);
+        let k = d
+            .series
+            .samples
+            .iter()
+            .position(|s| s.speed > 1.0)
+            .expect("the first trip cruises");
+        // Two files glued together: the clock jumps back a minute in the middle of the trip.
+        for s in &mut d.series.samples[k..] {
+            s.time -= 60.0;
+        }
+        let f = extract(&d.series, &config());
+        assert_eq!(f.rows.len(), d.series.len());
+        assert_eq!(
+            f.trips.len(),
+            1,
+            "only the second trip is complete: {:?}",
+            f.trips
+        );
+        assert_eq!((f.trips[0].from_floor, f.trips[0].to_floor), (6.0, 2.0));
+        assert!(f
+            .rows
+            .iter()
+            .filter(|r| r.a_v.is_finite())
+            .all(|r| r.a_v.abs() < 1.2));
+    }
+
+    #[test]
     fn a_missing_direction_in_motion_keeps_the_sign_of_the_trip() {
         let mut d = day(&[(1 + 7, 0.3), (1, 0.3)], 0.15, 4);
         let f_ref = extract(&d.series, &config());

@@ -39,21 +39,35 @@ impl SampleSink for Count {
 
 /// Writes a raw log of `rows` rows: six signals at ~1 Hz, each with its own phase and
 /// ±50 ms jitter, trips every 40 s; mild disorder: in each block of 60 rows (10 s) two
-/// random pairs of rows are swapped. `rfc3339` writes times as `...T..:..:..mmmZ`.
-fn write_log(path: &Path, rows: u64, rfc3339: bool, seed: u64) {
+/// random pairs of rows are swapped. `rfc3339` writes times as `...T..:..:..mmmZ`;
+/// `late` moves the first 10 s to the end of the file, which forces the in-memory sort.
+fn write_log(path: &Path, rows: u64, rfc3339: bool, late: bool, seed: u64) {
     let mut rng = Rng::new(seed);
     let mut out =
         BufWriter::with_capacity(1 << 20, File::create(path).expect("temp dir is writable"));
     writeln!(out, "time,signal,value").expect("write");
     let signals = ["speed", "direction", "voltage", "load", "door", "floor"];
     let t0 = 1_772_352_000.0; // 2026-03-01T08:00:00Z
+    let mut write_row = |t: f64, i: usize, v: f64| {
+        if rfc3339 {
+            let ms = ((t - t0) * 1000.0).round() as u64;
+            let (s, ms) = (8 * 3600 + ms / 1000, ms % 1000);
+            let (d, s) = (s / 86_400, s % 86_400);
+            let (h, m, s) = (s / 3600, (s / 60) % 60, s % 60);
+            write!(out, "2026-03-{:02}T{h:02}:{m:02}:{s:02}.{ms:03}Z", 1 + d).expect("write");
+        } else {
+            write!(out, "{t:.3}").expect("write");
+        }
+        writeln!(out, ",{},{v:.3}", signals[i]).expect("write");
+    };
     let mut block: Vec<(f64, usize, f64)> = Vec::with_capacity(60);
+    let mut held_back = Vec::new();
     let mut written = 0u64;
     let mut second = 0u64;
-    while written < rows {
+    while written + (held_back.len() as u64) < rows {
         block.clear();
         for _ in 0..10 {
-            for (i, _) in signals.iter().enumerate() {
+            for i in 0..signals.len() {
                 let t = t0 + second as f64 + 0.15 * i as f64 + rng.uniform(-0.05, 0.05);
                 let cycle = (second % 40) as f64;
                 let moving = (10.0..30.0).contains(&cycle);
@@ -75,22 +89,20 @@ fn write_log(path: &Path, rows: u64, rfc3339: bool, seed: u64) {
             let b = rng.below(block.len() as u64) as usize;
             block.swap(a, b);
         }
+        if late && second == 10 {
+            held_back = block.clone();
+            continue;
+        }
         for &(t, i, v) in &block {
-            if written == rows {
+            if written + (held_back.len() as u64) == rows {
                 break;
             }
-            if rfc3339 {
-                let ms = ((t - t0) * 1000.0).round() as u64;
-                let (s, ms) = (8 * 3600 + ms / 1000, ms % 1000);
-                let (d, s) = (s / 86_400, s % 86_400);
-                let (h, m, s) = (s / 3600, (s / 60) % 60, s % 60);
-                write!(out, "2026-03-{:02}T{h:02}:{m:02}:{s:02}.{ms:03}Z", 1 + d).expect("write");
-            } else {
-                write!(out, "{t:.3}").expect("write");
-            }
-            writeln!(out, ",{},{v:.3}", signals[i]).expect("write");
+            write_row(t, i, v);
             written += 1;
         }
+    }
+    for &(t, i, v) in &held_back {
+        write_row(t, i, v);
     }
     out.flush().expect("flush");
 }
@@ -103,7 +115,7 @@ fn peak_rss_kb() -> Option<u64> {
 }
 
 /// Aligns `path` three times; returns (median rows/s, samples, peak RSS kB of this process).
-fn measure(path: &Path, rows: u64) -> (f64, u64, Option<u64>) {
+fn measure(path: &Path, rows: u64, late: bool) -> (f64, u64, Option<u64>) {
     let cfg = AlignConfig::default();
     let mut rates = Vec::new();
     let mut samples = 0;
@@ -118,9 +130,9 @@ fn measure(path: &Path, rows: u64) -> (f64, u64, Option<u64>) {
             "every generated row is used: {:?}",
             report.warning()
         );
-        assert!(
-            !report.full_sort,
-            "mild disorder stays within the reorder window"
+        assert_eq!(
+            report.full_sort, late,
+            "only the late tail forces the full sort"
         );
         assert!(sink.checksum > 0.0);
         samples = sink.samples;
@@ -132,12 +144,13 @@ fn measure(path: &Path, rows: u64) -> (f64, u64, Option<u64>) {
 
 /// Measures in a fresh child process (this binary with `--measure FILE ROWS`), so that the
 /// peak RSS is that of ingest and alignment alone, not of writing the log.
-fn measure_in_child(path: &Path, rows: u64) -> String {
+fn measure_in_child(path: &Path, rows: u64, late: bool) -> String {
     let exe = std::env::current_exe().expect("the bench knows its binary");
     let out = std::process::Command::new(exe)
         .arg("--measure")
         .arg(path)
         .arg(rows.to_string())
+        .arg(if late { "late" } else { "streamed" })
         .output()
         .expect("the bench can run itself");
     assert!(
@@ -150,10 +163,10 @@ fn measure_in_child(path: &Path, rows: u64) -> String {
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
-    if let [_, flag, path, rows] = args.as_slice() {
+    if let [_, flag, path, rows, mode] = args.as_slice() {
         if flag == "--measure" {
             let rows: u64 = rows.parse().expect("rows is a number");
-            let (rate, samples, peak) = measure(Path::new(path), rows);
+            let (rate, samples, peak) = measure(Path::new(path), rows, mode == "late");
             let peak = peak.map_or("n/a".to_string(), |kb| {
                 format!("{:.1} MB", kb as f64 / 1024.0)
             });
@@ -172,17 +185,19 @@ fn main() {
         .and_then(|s| s.parse().ok())
         .unwrap_or(10_000_000);
     println!("ingest+align, default AlignConfig (step 1 s, gap 5 s, reorder window 600 s), 1 core");
-    for (label, n, rfc) in [
-        ("numeric", rows, false),
-        ("numeric x2", 2 * rows, false),
-        ("rfc3339", rows / 10, true),
+    for (label, n, rfc, late) in [
+        ("numeric", rows, false, false),
+        ("numeric x2", 2 * rows, false, false),
+        ("rfc3339", rows / 10, true, false),
+        ("late tail", rows / 10, false, true),
+        ("late tail x2", rows / 5, false, true),
     ] {
-        let path = dir.join(format!("raw-{n}-{rfc}.csv"));
-        write_log(&path, n, rfc, 1);
+        let path = dir.join(format!("raw-{n}-{rfc}-{late}.csv"));
+        write_log(&path, n, rfc, late, 1);
         let bytes = std::fs::metadata(&path).map(|m| m.len()).unwrap_or(0);
-        let result = measure_in_child(&path, n);
+        let result = measure_in_child(&path, n, late);
         println!(
-            "{label:>11}: {n:>9} rows ({:.0} MB), {result}",
+            "{label:>12}: {n:>9} rows ({:.0} MB), {result}",
             bytes as f64 / 1e6
         );
         let _ = std::fs::remove_file(&path);

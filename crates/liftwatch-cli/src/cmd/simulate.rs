@@ -71,8 +71,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let mode: FaultMode = args.scenario.parse()?;
     let ramp: Ramp = args.ramp.parse()?;
     let onset = cfg.start_s + args.onset_days.map_or(0.4 * span, |d| d * 86_400.0);
-    let full = cfg.start_s + args.full_days.map_or(span, |d| d * 86_400.0);
-    cfg.scenario = Scenario::new(mode, onset, ramp, full.max(onset), args.severity)?;
+    // An explicit --full-days before the onset is an error; the default follows a late onset.
+    let full = match args.full_days {
+        Some(d) => cfg.start_s + d * 86_400.0,
+        None => (cfg.start_s + span).max(onset),
+    };
+    cfg.scenario = Scenario::new(mode, onset, ramp, full, args.severity)?;
     cfg.sensor_fault = match args.sensor_fault.as_str() {
         "none" => None,
         "load-drift" => Some(SensorFault::LoadDrift {

@@ -234,8 +234,8 @@ pub struct SimSummary {
     pub moving_s: f64,
     /// Mean true load ratio over time in motion (1).
     pub mean_load_ratio_moving: f64,
-    /// Mean rope and travelling-cable imbalance over time in motion (kg): what a fit with a
-    /// position-free Δm absorbs on top of `parameters.delta_m` (the mid-travel value).
+    /// Mean rope and travelling-cable imbalance over time in motion (kg): a fit without the
+    /// position term m_rope·q absorbs car − counterweight + this value into Δm.
     pub mean_imbalance_moving_kg: f64,
     /// Lowest and highest thermal factor of Kd seen at the grid instants.
     pub kd_thermal_range: (f64, f64),
@@ -250,7 +250,8 @@ pub struct SimTruth {
     pub start_s: f64,
     /// Simulated span (s).
     pub duration_s: f64,
-    /// True parameters in the identification model's terms (MODEL.md names and units).
+    /// True parameters in the identification model's terms (`model::physics` names and units;
+    /// Δm and m_rope as the least-squares line of the true imbalance over the landings).
     pub parameters: PhysParams,
     /// Platform mass over rated load: the load-cell inertia ratio p of the features stage (1).
     pub load_cell_platform_ratio: f64,

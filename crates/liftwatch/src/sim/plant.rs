@@ -281,12 +281,27 @@ impl SimElevator {
         100.0 * (load_kg * (G + a) + self.platform_mass_kg * a) / (self.rated.rated_load_kg * G)
     }
 
-    /// The true parameters in the identification model's terms (MODEL.md): Δm at mid-travel,
-    /// M0 with rotating inertia, mean F_c, c, nominal Kd, Ke, U0, α_down.
+    /// The true parameters in the identification model's terms (MODEL.md and
+    /// `model::physics`): M0 with rotating inertia, mean F_c, c, nominal Kd, Ke, U0, α_down,
+    /// and the position terms Δm + m_rope·q as the least-squares line of the true imbalance
+    /// over the landings, q = (floor − 1)/(floors − 1) − ½ (the landings are unevenly spaced,
+    /// so the line is the best the floor-indexed model can do, not an exact match).
     pub fn true_params(&self) -> PhysParams {
+        let n = self.floor_positions_m.len();
+        let (mut mean, mut sqq, mut sqi) = (0.0, 0.0, 0.0);
+        for (i, &x) in self.floor_positions_m.iter().enumerate() {
+            let q = if n > 1 {
+                i as f64 / (n - 1) as f64 - 0.5
+            } else {
+                0.0
+            };
+            let imb = self.imbalance_kg(x);
+            mean += imb / n.max(1) as f64;
+            sqq += q * q;
+            sqi += q * imb;
+        }
         PhysParams {
-            delta_m: self.car_mass_kg - self.counterweight_mass_kg()
-                + self.imbalance_kg(0.5 * self.travel_m()),
+            delta_m: self.car_mass_kg - self.counterweight_mass_kg() + mean,
             m0: self.m0(),
             f_c: self.f_c,
             c_visc: self.c_visc,
@@ -294,6 +309,7 @@ impl SimElevator {
             ke: self.ke,
             u0: self.u0,
             alpha_down: self.alpha_down,
+            m_rope: if sqq > 0.0 { sqi / sqq } else { 0.0 },
         }
     }
 }
@@ -340,10 +356,32 @@ mod tests {
     }
 
     #[test]
-    fn rope_imbalance_changes_sign_over_the_travel() {
+    fn rope_imbalance_changes_sign_over_the_travel_and_its_line_fits_the_landings() {
         let p = plant();
         assert!(p.imbalance_kg(0.0) > 0.0);
         assert!(p.imbalance_kg(p.travel_m()) < 0.0);
+        let th = p.true_params();
+        assert!(
+            th.m_rope < 0.0,
+            "ropes outweigh the travelling cable: {}",
+            th.m_rope
+        );
+        let ends = p.imbalance_kg(p.travel_m()) - p.imbalance_kg(0.0);
+        assert!(
+            (th.m_rope / ends - 1.0).abs() < 0.15,
+            "{} vs {ends}",
+            th.m_rope
+        );
+        let n = p.floor_positions_m.len();
+        let empty = p.car_mass_kg - p.counterweight_mass_kg();
+        for (i, &x) in p.floor_positions_m.iter().enumerate() {
+            let q = i as f64 / (n - 1) as f64 - 0.5;
+            let line = th.delta_m + th.m_rope * q;
+            assert!(
+                (line - empty - p.imbalance_kg(x)).abs() < 0.1 * ends.abs(),
+                "landing {i}"
+            );
+        }
     }
 
     #[test]

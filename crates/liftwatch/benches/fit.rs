@@ -24,7 +24,7 @@ fn main() {
     let feats = extract(&series, &fcfg);
     let prior = PhysParams::prior_centre(&elevator);
     let (obs, moving, rest) =
-        observations_weighted(&feats.rows, 0.1, prior.ke, 0.005 * elevator.rated_voltage()).expect("enough motion");
+        observations_weighted(&feats.rows, elevator.floors, 0.1, prior.ke, 0.005 * elevator.rated_voltage()).expect("enough motion");
     println!(
         "data: {} samples, {} trips, {moving} moving samples, {rest} standstill ({} observations after grouping)",
         series.len(),

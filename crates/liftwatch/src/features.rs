@@ -192,6 +192,8 @@ pub struct FeatureRow {
     pub a: f64,
     /// U: measured motor voltage (V).
     pub voltage: f64,
+    /// Floor indicator (1-based), NaN when missing: the car's position for the rope imbalance.
+    pub floor: f64,
     /// Phase of travel.
     pub phase: Phase,
     /// Index of the trip this sample belongs to, if moving.
@@ -630,6 +632,7 @@ impl FeatureTracker {
             a_l,
             a,
             voltage: c.voltage,
+            floor: c.floor,
             phase,
             trip: trip.map(|t| t.index),
         }

@@ -51,12 +51,10 @@ impl Residuals {
         e: f64::NAN,
     };
 
-    /// The residuals of `x` with `model` (one forward pass of the network).
+    /// The residuals of `x` with `model` (one forward pass of the network, inputs as
+    /// [`net_inputs`]).
     pub fn compute(model: &FittedModel, x: &FeatureRow) -> Residuals {
-        if !applicable(x) {
-            return Residuals::MISSING;
-        }
-        Residuals::from_prediction(model, x, &model.predict(x))
+        PredictionCache::default().residuals(model, x)
     }
 
     /// The residuals of `x` from a prediction already made for it.
@@ -102,11 +100,28 @@ pub fn applicable(x: &FeatureRow) -> bool {
     x.v.is_finite() && x.a.is_finite() && x.lambda.is_finite() && x.voltage.is_finite()
 }
 
-/// Memo of the last prediction, keyed by the exact inputs (v, λ, a).
+/// The network's inputs for a row: its own (v, λ, a) while moving; (0, λ, 0) at standstill.
 ///
-/// At standstill v = a = 0 and λ is held from door close, so consecutive standstill samples
-/// repeat the same inputs: the memo turns their forward pass into a comparison. Moving samples
-/// miss it and pay the one 370-weight pass.
+/// Deviation from a literal reading of the model: below the motion threshold the encoder's
+/// speed and the acceleration estimate are noise around zero, the car is held by the brake,
+/// and the correction is evaluated at rest. The physics keep the measured v (its Ke·|v| term
+/// is not negligible), only the network's inputs are pinned, so that consecutive standstill
+/// samples share one forward pass per λ ([`PredictionCache`]). The fit uses the same inputs
+/// through [`FittedModel::predict`] only when it pins them too; the difference is a network
+/// evaluated a few mm/s from rest, far below σ_U.
+pub fn net_inputs(x: &FeatureRow) -> (f64, f64, f64) {
+    if x.s == 0 {
+        (0.0, x.lambda, 0.0)
+    } else {
+        (x.v, x.lambda, x.a)
+    }
+}
+
+/// Memo of the last network output, keyed by the exact network inputs.
+///
+/// At standstill the inputs are (0, λ, 0) with λ held from door close, so consecutive
+/// standstill samples repeat them: the memo turns their forward pass into a comparison.
+/// Moving samples miss it and pay the one 370-weight pass.
 #[derive(Clone, Debug, Default)]
 pub struct PredictionCache {
     key: Option<[u64; 3]>,
@@ -115,16 +130,18 @@ pub struct PredictionCache {
 }
 
 impl PredictionCache {
-    /// The prediction for `x`, reusing the network output when (v, λ, a) equals the last call's.
+    /// The prediction for `x`, reusing the network output when its inputs equal the last call's.
     pub fn predict(&mut self, model: &FittedModel, x: &FeatureRow) -> Prediction {
-        let key = [x.v.to_bits(), x.lambda.to_bits(), x.a.to_bits()];
+        let (v, lambda, a) = net_inputs(x);
+        let key = [v.to_bits(), lambda.to_bits(), a.to_bits()];
         if self.key != Some(key) {
-            let [du, df] = model.net.forward(x.v, x.lambda, x.a);
+            let [du, df] = model.net.forward(v, lambda, a);
             (self.key, self.du, self.df) = (Some(key), du, df);
         }
         let p = &model.parameters;
         let m_r = model.elevator.rated_load_kg;
-        let f_phys = p.force(x.s, x.v, x.lambda, x.a, m_r);
+        let q = crate::model::PhysParams::relative_height(x.floor, model.elevator.floors);
+        let f_phys = p.force(x.s, x.v, x.lambda, x.a, q, m_r);
         Prediction {
             u_pred: p.voltage(x.s, x.v, f_phys) + self.du,
             f_pred: f_phys + self.df,
@@ -194,6 +211,7 @@ pub(crate) mod tests {
             a_l: f64::NAN,
             a,
             voltage: 0.0,
+            floor: f64::NAN,
             phase: if s == 0 {
                 Phase::Standstill
             } else {

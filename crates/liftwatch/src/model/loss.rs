@@ -21,8 +21,8 @@
 //!   more observation per parameter, so it decides only what the data cannot.
 //!
 //! Positive parameters (M0, F_c, c, Kd, Ke, U0, α_down) are optimised as z with
-//! θ = μ·softplus(z)/ln 2 (z = 0 is the prior centre); Δm, which may have either sign, as
-//! θ = μ + 0.1·M_r·z.
+//! θ = μ·softplus(z)/ln 2 (z = 0 is the prior centre); Δm and m_rope, which may have either
+//! sign, as θ = μ + 0.1·M_r·z.
 
 use crate::elevator::Elevator;
 use crate::model::net::{backward_raw, forward_raw, NetCache, N_WEIGHTS};
@@ -42,6 +42,8 @@ pub struct Obs {
     pub lambda: f64,
     /// a: fused acceleration (m/s²).
     pub a: f64,
+    /// q: relative height of the car (−½ bottom … +½ top).
+    pub q: f64,
     /// U: measured voltage (V); a mean when the observation aggregates several samples.
     pub u: f64,
     /// Weight w_i (a count of samples times the motion weight).
@@ -65,7 +67,7 @@ impl Prior {
         let m_r = e.rated_load_kg;
         Prior {
             centre: c,
-            sd: [0.25 * m_r, 0.5 * c.m0, 1.0 * c.f_c, 1.0 * c.c_visc, 1.0 * c.kd, 0.5 * c.ke, 1.0 * c.u0.max(5.0), 0.3],
+            sd: [0.25 * m_r, 0.5 * c.m0, 1.0 * c.f_c, 1.0 * c.c_visc, 1.0 * c.kd, 0.5 * c.ke, 1.0 * c.u0.max(5.0), 0.3, 0.5 * m_r],
         }
     }
 
@@ -106,9 +108,12 @@ impl ParamMap {
     /// θ(z).
     pub fn theta(&self, z: &[f64]) -> PhysParams {
         let mut t = [0.0; N_PHYS];
-        t[0] = self.centre[0] + self.delta_m_scale * z[0];
-        for k in 1..N_PHYS {
-            t[k] = self.centre[k] * softplus(z[k]) / LN2;
+        for k in 0..N_PHYS {
+            t[k] = if PhysParams::SIGNED[k] {
+                self.centre[k] + self.delta_m_scale * z[k]
+            } else {
+                self.centre[k] * softplus(z[k]) / LN2
+            };
         }
         PhysParams::from_array(t)
     }
@@ -116,9 +121,8 @@ impl ParamMap {
     /// dθ_k/dz_k.
     pub fn dtheta_dz(&self, z: &[f64]) -> [f64; N_PHYS] {
         let mut d = [0.0; N_PHYS];
-        d[0] = self.delta_m_scale;
-        for k in 1..N_PHYS {
-            d[k] = self.centre[k] * sigmoid(z[k]) / LN2;
+        for k in 0..N_PHYS {
+            d[k] = if PhysParams::SIGNED[k] { self.delta_m_scale } else { self.centre[k] * sigmoid(z[k]) / LN2 };
         }
         d
     }
@@ -127,8 +131,11 @@ impl ParamMap {
     pub fn z(&self, p: &PhysParams) -> [f64; N_PHYS] {
         let t = p.to_array();
         let mut z = [0.0; N_PHYS];
-        z[0] = (t[0] - self.centre[0]) / self.delta_m_scale;
-        for k in 1..N_PHYS {
+        for k in 0..N_PHYS {
+            if PhysParams::SIGNED[k] {
+                z[k] = (t[k] - self.centre[k]) / self.delta_m_scale;
+                continue;
+            }
             let y = (t[k] / self.centre[k] * LN2).max(1e-6 * LN2);
             // inverse softplus: ln(e^y − 1)
             z[k] = if y > 30.0 { y } else { y.exp_m1().ln() };
@@ -166,13 +173,14 @@ struct PhysEval {
 fn phys_eval(p: &PhysParams, motor_ref: &PhysParams, o: &Obs, m_r: f64) -> PhysEval {
     let s = f64::from(o.s);
     let phi = p.phi(o.s);
-    let f = p.force(o.s, o.v, o.lambda, o.a, m_r);
+    let f = p.force(o.s, o.v, o.lambda, o.a, o.q, m_r);
     let u = p.voltage(o.s, o.v, f);
-    // dF/dθ: Δm, m0, f_c, c
-    let df = [crate::elevator::G, o.a, s, o.v, 0.0, 0.0, 0.0, 0.0];
+    // dF/dθ: Δm, m0, f_c, c and m_rope
+    let g = crate::elevator::G;
+    let df = [g, o.a, s, o.v, 0.0, 0.0, 0.0, 0.0, g * o.q];
     let k = phi * p.kd * s;
     let mut du = [0.0; N_PHYS];
-    for i in 0..4 {
+    for i in [0, 1, 2, 3, 8] {
         du[i] = k * df[i];
     }
     du[4] = phi * s * f;
@@ -312,7 +320,7 @@ mod tests {
             .map(|i| {
                 let s = [1i8, -1, 0][i % 3];
                 let v = f64::from(s) * rng.uniform(0.1, 1.75);
-                Obs { s, v, lambda: rng.uniform(0.0, 0.8), a: rng.uniform(-1.0, 1.0), u: rng.uniform(0.0, 400.0), w: rng.uniform(0.2, 1.0) }
+                Obs { s, v, lambda: rng.uniform(0.0, 0.8), a: rng.uniform(-1.0, 1.0), q: rng.uniform(-0.5, 0.5), u: rng.uniform(0.0, 400.0), w: rng.uniform(0.2, 1.0) }
             })
             .collect()
     }
@@ -340,12 +348,13 @@ mod tests {
         let e = Elevator::new(1000.0, 1.75, 26);
         let prior = Prior::for_elevator(&e);
         let map = ParamMap::new(&prior, 1000.0);
-        let p = PhysParams { delta_m: -420.0, m0: 3900.0, f_c: 250.0, c_visc: 80.0, kd: 0.004, ke: 190.0, u0: 6.0, alpha_down: 0.85 };
+        let p = PhysParams { delta_m: -420.0, m0: 3900.0, f_c: 250.0, c_visc: 80.0, kd: 0.004, ke: 190.0, u0: 6.0, alpha_down: 0.85, m_rope: -150.0 };
         let back = map.theta(&map.z(&p)).to_array();
         for (a, b) in back.iter().zip(p.to_array()) {
             assert!((a - b).abs() < 1e-9 * b.abs().max(1.0), "{a} vs {b}");
         }
         let low = map.theta(&[-50.0; N_PHYS]);
-        assert!(low.to_array()[1..].iter().all(|v| *v > 0.0));
+        let positive = low.to_array().into_iter().zip(PhysParams::SIGNED).filter(|(_, signed)| !signed);
+        assert!(positive.clone().count() == 7 && positive.into_iter().all(|(v, _)| v > 0.0));
     }
 }

@@ -79,7 +79,8 @@ impl FittedModel {
         let p = &self.parameters;
         let m_r = self.elevator.rated_load_kg;
         let [du, df] = self.net.forward(x.v, x.lambda, x.a);
-        let f_phys = p.force(x.s, x.v, x.lambda, x.a, m_r);
+        let q = PhysParams::relative_height(x.floor, self.elevator.floors);
+        let f_phys = p.force(x.s, x.v, x.lambda, x.a, q, m_r);
         Prediction {
             u_pred: p.voltage(x.s, x.v, f_phys) + du,
             f_pred: f_phys + df,
@@ -121,7 +122,7 @@ pub fn fit(
     let feature_cfg = crate::features::fit_load_cell(series, &FeatureConfig::for_elevator(elevator))?;
     let features = crate::features::extract(series, &feature_cfg);
     let prior = PhysParams::prior_centre(elevator);
-    let (obs, _, n_rest) = train::observations_weighted(&features.rows, cfg.standstill_share, prior.ke, 0.005 * elevator.rated_voltage())?;
+    let (obs, _, n_rest) = train::observations_weighted(&features.rows, elevator.floors, cfg.standstill_share, prior.ke, 0.005 * elevator.rated_voltage())?;
     let trained = train::train(&obs, elevator, cfg, observer)?;
     let mut summary = trained.summary;
     summary.standstill_samples = n_rest;

@@ -202,8 +202,8 @@ pub const MIN_TRIPS: usize = 6;
 ///
 /// # Errors
 /// [`Error::TooLittleMotion`] and [`Error::Unidentifiable`] when the rows cannot determine θ.
-pub fn observations(rows: &[FeatureRow], standstill_share: f64) -> Result<(Vec<Obs>, usize, usize)> {
-    observations_weighted(rows, standstill_share, 0.0, 1.0)
+pub fn observations(rows: &[FeatureRow], floors: u32, standstill_share: f64) -> Result<(Vec<Obs>, usize, usize)> {
+    observations_weighted(rows, floors, standstill_share, 0.0, 1.0)
 }
 
 /// [`observations`] with interpolation weights for a back-EMF slope `ke_v_s_per_m` (V·s/m) and
@@ -211,7 +211,13 @@ pub fn observations(rows: &[FeatureRow], standstill_share: f64) -> Result<(Vec<O
 ///
 /// # Errors
 /// As [`observations`].
-pub fn observations_weighted(rows: &[FeatureRow], standstill_share: f64, ke_v_s_per_m: f64, sigma_v: f64) -> Result<(Vec<Obs>, usize, usize)> {
+pub fn observations_weighted(
+    rows: &[FeatureRow],
+    floors: u32,
+    standstill_share: f64,
+    ke_v_s_per_m: f64,
+    sigma_v: f64,
+) -> Result<(Vec<Obs>, usize, usize)> {
     let ok = |r: &FeatureRow| r.v.is_finite() && r.lambda.is_finite() && r.a.is_finite() && r.voltage.is_finite();
     let mut moving: Vec<Obs> = Vec::new();
     let mut trips = std::collections::BTreeSet::new();
@@ -221,7 +227,8 @@ pub fn observations_weighted(rows: &[FeatureRow], standstill_share: f64, ke_v_s_
     for (i, r) in rows.iter().enumerate().filter(|(_, r)| ok(r)) {
         if r.s != 0 {
             let w = interpolation_weight(rows, i, ke_v_s_per_m, sigma_v);
-            moving.push(Obs { s: r.s, v: r.v, lambda: r.lambda, a: r.a, u: r.voltage, w });
+            let q = PhysParams::relative_height(r.floor, floors);
+            moving.push(Obs { s: r.s, v: r.v, lambda: r.lambda, a: r.a, q, u: r.voltage, w });
             if let Some(t) = r.trip {
                 trips.insert(t);
             }
@@ -256,7 +263,7 @@ pub fn observations_weighted(rows: &[FeatureRow], standstill_share: f64, ke_v_s_
     let rest_w = standstill_share * moving_w / n_rest as f64;
     let n_moving = moving.len();
     for (n, lam, u) in bins.into_values() {
-        moving.push(Obs { s: 0, v: 0.0, lambda: lam / n, a: 0.0, u: u / n, w: n * rest_w });
+        moving.push(Obs { s: 0, v: 0.0, lambda: lam / n, a: 0.0, q: 0.0, u: u / n, w: n * rest_w });
     }
     Ok((moving, n_moving, n_rest))
 }
@@ -310,7 +317,7 @@ pub fn train(
     }
     let p1 = map.theta(&z);
     let sigma_f = robust_sigma(data.iter().filter(|o| o.s != 0).map(|o| {
-        p1.force(o.s, o.v, o.lambda, o.a, m_r) - p1.force_from_voltage(o.s, o.v, o.u)
+        p1.force(o.s, o.v, o.lambda, o.a, o.q, m_r) - p1.force_from_voltage(o.s, o.v, o.u)
     }))
     .max(1e-3);
     let weights = LossWeights { w_u: cfg.w_u, w_f: cfg.w_f, w_p: cfg.w_p, w_n: cfg.w_n, sigma_u, sigma_f };
@@ -369,11 +376,11 @@ pub fn train(
     // Healthy scales from the final residuals of moving samples.
     let model_u = |o: &Obs| {
         let [du, _] = net.forward(o.v, o.lambda, o.a);
-        o.u - parameters.voltage(o.s, o.v, parameters.force(o.s, o.v, o.lambda, o.a, m_r)) - du
+        o.u - parameters.voltage(o.s, o.v, parameters.force(o.s, o.v, o.lambda, o.a, o.q, m_r)) - du
     };
     let model_f = |o: &Obs| {
         let [_, df] = net.forward(o.v, o.lambda, o.a);
-        parameters.force(o.s, o.v, o.lambda, o.a, m_r) + df - parameters.force_from_voltage(o.s, o.v, o.u)
+        parameters.force(o.s, o.v, o.lambda, o.a, o.q, m_r) + df - parameters.force_from_voltage(o.s, o.v, o.u)
     };
     let scales = ResidualScales {
         sigma_u_v: robust_sigma(data.iter().filter(|o| o.s != 0).map(model_u)).max(1e-3),
@@ -409,7 +416,7 @@ fn thin(h: Vec<TrainPoint>, max: usize) -> Vec<TrainPoint> {
 }
 
 fn phys_u(p: &PhysParams, o: &Obs, m_r: f64) -> f64 {
-    p.voltage(o.s, o.v, p.force(o.s, o.v, o.lambda, o.a, m_r))
+    p.voltage(o.s, o.v, p.force(o.s, o.v, o.lambda, o.a, o.q, m_r))
 }
 
 /// 1.4826·MAD: a standard deviation that a few outliers do not inflate.
@@ -433,9 +440,10 @@ fn median(v: &mut [f64]) -> f64 {
 fn du_dtheta(p: &PhysParams, o: &Obs, m_r: f64) -> [f64; N_PHYS] {
     let s = f64::from(o.s);
     let k = p.phi(o.s) * p.kd * s;
-    let f = p.force(o.s, o.v, o.lambda, o.a, m_r);
+    let f = p.force(o.s, o.v, o.lambda, o.a, o.q, m_r);
+    let g = crate::elevator::G;
     [
-        k * crate::elevator::G,
+        k * g,
         k * o.a,
         k * s,
         k * o.v,
@@ -443,6 +451,7 @@ fn du_dtheta(p: &PhysParams, o: &Obs, m_r: f64) -> [f64; N_PHYS] {
         o.v.abs(),
         1.0,
         if o.s == -1 { p.kd * s * f } else { 0.0 },
+        k * g * o.q,
     ]
 }
 
@@ -752,10 +761,10 @@ fn param_reports(
         let se = var.max(0.0).sqrt();
         ParamReport { name: name.into(), unit: "V s/m".into(), value, std_error: Some(se), prior_sd: None, determined: se < 0.05 * value.abs() }
     };
-    reps.push(combo("ke + kd*c_visc", [0.0, 0.0, 0.0, p.kd, p.c_visc, 1.0, 0.0, 0.0], p.ke + p.kd * p.c_visc));
+    reps.push(combo("ke + kd*c_visc", [0.0, 0.0, 0.0, p.kd, p.c_visc, 1.0, 0.0, 0.0, 0.0], p.ke + p.kd * p.c_visc));
     reps.push(combo(
         "ke + alpha_down*kd*c_visc",
-        [0.0, 0.0, 0.0, p.alpha_down * p.kd, p.alpha_down * p.c_visc, 1.0, 0.0, p.kd * p.c_visc],
+        [0.0, 0.0, 0.0, p.alpha_down * p.kd, p.alpha_down * p.c_visc, 1.0, 0.0, p.kd * p.c_visc, 0.0],
         p.ke + p.alpha_down * p.kd * p.c_visc,
     ));
     // Sensor timing: a relative latency Δτ between the speed and voltage channels adds
@@ -775,6 +784,7 @@ mod tests {
     /// Data generated exactly by MODEL.md's equations plus Gaussian voltage noise: trips of
     /// trapezoidal speed, mostly light loads, standstill between trips.
     pub(crate) fn paper_exact(truth: &PhysParams, e: &Elevator, noise_v: f64, trips: usize, seed: u64) -> Vec<FeatureRow> {
+        let floors = e.floors;
         let mut rng = Rng::new(seed);
         let mut rows = Vec::new();
         let mut t = 0.0;
@@ -782,6 +792,8 @@ mod tests {
         for trip in 0..trips {
             let s: i8 = if trip % 2 == 0 { 1 } else { -1 };
             let lambda = (rng.exponential(0.12)).min(1.0);
+            let floor = 1.0 + rng.below(u64::from(floors)) as f64;
+            let q = PhysParams::relative_height(floor, floors);
             let cruise = rng.below(12) as usize;
             let ramp = (v_r / 0.45).ceil() as usize;
             let mut speeds: Vec<f64> = (1..=ramp).map(|k| v_r * k as f64 / ramp as f64).collect();
@@ -793,14 +805,14 @@ mod tests {
                 let a = v - prev;
                 prev = v;
                 let st = if sp > 0.05 { s } else { 0 };
-                let f = truth.force(st, v, lambda, a, e.rated_load_kg);
+                let f = truth.force(st, v, lambda, a, q, e.rated_load_kg);
                 let u = truth.voltage(st, v, f) + noise_v * rng.normal();
-                rows.push(FeatureRow { time: t, v, s: st, lambda, a_v: a, a_l: f64::NAN, a, voltage: u, phase: crate::features::Phase::Cruising, trip: Some(trip as u32) });
+                rows.push(FeatureRow { time: t, v, s: st, lambda, a_v: a, a_l: f64::NAN, a, voltage: u, floor, phase: crate::features::Phase::Cruising, trip: Some(trip as u32) });
                 t += 1.0;
             }
             for _ in 0..20 {
                 let u = truth.u0 + noise_v * rng.normal();
-                rows.push(FeatureRow { time: t, v: 0.0, s: 0, lambda, a_v: 0.0, a_l: f64::NAN, a: 0.0, voltage: u, phase: crate::features::Phase::Standstill, trip: None });
+                rows.push(FeatureRow { time: t, v: 0.0, s: 0, lambda, a_v: 0.0, a_l: f64::NAN, a: 0.0, voltage: u, floor, phase: crate::features::Phase::Standstill, trip: None });
                 t += 1.0;
             }
         }
@@ -808,7 +820,7 @@ mod tests {
     }
 
     fn truth() -> PhysParams {
-        PhysParams { delta_m: -430.0, m0: 3300.0, f_c: 260.0, c_visc: 110.0, kd: 0.0052, ke: 175.0, u0: 8.0, alpha_down: 0.82 }
+        PhysParams { delta_m: -430.0, m0: 3300.0, f_c: 260.0, c_visc: 110.0, kd: 0.0052, ke: 175.0, u0: 8.0, alpha_down: 0.82, m_rope: -180.0 }
     }
 
     #[test]
@@ -817,7 +829,7 @@ mod tests {
         let e = Elevator::new(1000.0, 1.75, 26);
         let t = truth();
         let rows = paper_exact(&t, &e, 2.0, 480, 5);
-        let (obs, _, _) = observations(&rows, 0.1).unwrap();
+        let (obs, _, _) = observations(&rows, e.floors, 0.1).unwrap();
         let cfg = TrainConfig { epochs: 200, log_every: 0, ..TrainConfig::default() };
         let fit = train(&obs, &e, &cfg, &mut |_| {}).unwrap();
         let p = fit.parameters;
@@ -830,6 +842,7 @@ mod tests {
             ("delta_m", p.delta_m, t.delta_m),
             ("ke + kd c (up)", p.ke + p.kd * p.c_visc, t.ke + t.kd * t.c_visc),
             ("ke + α kd c (down)", p.ke + p.alpha_down * p.kd * p.c_visc, t.ke + t.alpha_down * t.kd * t.c_visc),
+            ("m_rope", p.m_rope, t.m_rope),
         ] {
             assert!(rel(got, want) < 0.02, "{name}: got {got}, want {want} ({:.2} %)", 100.0 * rel(got, want));
         }
@@ -852,7 +865,7 @@ mod tests {
         for r in rows.iter_mut().filter(|r| r.s != 0) {
             r.voltage += 5.0 * (-((r.v.abs() - 0.9) / 0.3).powi(2)).exp();
         }
-        let (obs, _, _) = observations(&rows, 0.1).unwrap();
+        let (obs, _, _) = observations(&rows, e.floors, 0.1).unwrap();
         let physics_only = TrainConfig { epochs: 0, log_every: 0, ..TrainConfig::default() };
         let hybrid = TrainConfig { epochs: 400, log_every: 0, ..TrainConfig::default() };
         let p_fit = train(&obs, &e, &physics_only, &mut |_| {}).unwrap();
@@ -865,13 +878,13 @@ mod tests {
     fn too_little_motion_is_refused() {
         let e = Elevator::new(1000.0, 1.75, 26);
         let rows = paper_exact(&truth(), &e, 2.0, 3, 5);
-        assert!(matches!(observations(&rows, 0.1), Err(Error::TooLittleMotion { .. })));
+        assert!(matches!(observations(&rows, e.floors, 0.1), Err(Error::TooLittleMotion { .. })));
     }
 
     #[test]
     fn one_direction_only_is_refused() {
         let e = Elevator::new(1000.0, 1.75, 26);
         let rows: Vec<FeatureRow> = paper_exact(&truth(), &e, 2.0, 60, 5).into_iter().filter(|r| r.s >= 0).collect();
-        assert!(matches!(observations(&rows, 0.1), Err(Error::Unidentifiable(_))));
+        assert!(matches!(observations(&rows, e.floors, 0.1), Err(Error::Unidentifiable(_))));
     }
 }

@@ -24,5 +24,7 @@ pub enum Command {
     Fit(cmd::fit::Args),
     /// Watch telemetry with a fitted model: residuals, risk, levels, events.
     Monitor(cmd::monitor::Args),
+    /// Compare liftwatch with the threshold baseline, CUSUM and EWMA on a seeded simulated suite.
+    Evaluate(cmd::evaluate::Args),
     Report(cmd::report::Args),
 }

@@ -13,6 +13,7 @@ pub mod alarm;
 pub mod baseline;
 pub mod elevator;
 pub mod error;
+pub mod evaluate;
 pub mod features;
 pub mod ingest;
 pub mod linalg;

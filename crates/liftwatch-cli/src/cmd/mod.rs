@@ -1,6 +1,7 @@
 //! One file per subcommand; each `run()` reads as its slice of the pipeline.
 
 pub mod align;
+pub mod evaluate;
 pub mod fit;
 pub mod monitor;
 pub mod report;
@@ -15,6 +16,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Command::Align(a) => align::run(a),
         Command::Fit(a) => fit::run(a),
         Command::Monitor(a) => monitor::run(a),
+        Command::Evaluate(a) => evaluate::run(a),
         Command::Report(a) => report::run(a),
     }
 }

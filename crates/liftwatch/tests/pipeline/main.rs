@@ -2,3 +2,4 @@
 mod sim;
 mod features;
 mod align;
+mod evaluate;

@@ -1,0 +1,82 @@
+//! The evaluation suite end to end on short spans: one elevator, a healthy run and a strong
+//! friction step, through simulation, fit, both monitor methods and both control charts.
+
+use liftwatch::alarm::FaultMode as Named;
+use liftwatch::evaluate::{self, Case, MethodResult, SuiteConfig, Truth};
+use liftwatch::sim::{FaultMode, Ramp, Scenario};
+
+fn method<'a>(r: &'a evaluate::CaseResult, name: &str) -> &'a MethodResult {
+    r.methods
+        .iter()
+        .find(|m| m.method == name)
+        .expect("every method has a result")
+}
+
+#[test]
+fn strong_fault_is_detected_and_healthy_run_stays_quiet() {
+    let mut cfg = SuiteConfig::new(5, true);
+    cfg.train_days = 0.6;
+    let fleet = evaluate::fleet(true);
+    let trained = evaluate::train(&fleet[0], 0, &cfg).expect("a healthy day fits");
+    let c = &trained.charts;
+    // Limits at least as wide as the textbook ones for ≤ 1 false signal per year.
+    assert!(c.cusum_h >= c.cusum_h_iid && c.cusum_h_iid > 5.0, "{c:?}");
+    assert!(c.ewma_l >= c.ewma_l_iid && c.ewma_l_iid > 3.0, "{c:?}");
+
+    let healthy = Case {
+        name: "healthy".into(),
+        elevator: 0,
+        truth: Truth::Healthy,
+        scenario: Scenario::healthy(),
+        sensor_fault: None,
+        days: 1.5,
+        onset_days: None,
+    };
+    let h = evaluate::run_case(&healthy, &trained, &cfg, 0).unwrap();
+    assert!(h.trips > 300, "{} trips in 1.5 days", h.trips);
+    for name in ["liftwatch", "cusum", "ewma"] {
+        let m = method(&h, name);
+        assert_eq!(m.false_signals, 0, "{name} on a healthy run: {m:?}");
+        assert!(m.delay_days.is_none());
+        assert!((m.exposure_days - 1.5).abs() < 1e-9);
+    }
+
+    // Friction doubled (σ = 4 × the default +25 %) in one step at 40 % of 2.5 days.
+    let span = 2.5 * 86_400.0;
+    let onset = 0.4 * span;
+    let fault = Case {
+        name: "friction step".into(),
+        elevator: 0,
+        truth: Truth::Friction,
+        scenario: Scenario::new(FaultMode::Friction, onset, Ramp::Step, onset, 4.0).unwrap(),
+        sensor_fault: None,
+        days: 2.5,
+        onset_days: Some(onset / 86_400.0),
+    };
+    let f = evaluate::run_case(&fault, &trained, &cfg, 1).unwrap();
+    // More friction, more force, more voltage in both directions: the trip means rise.
+    assert!(f.late_mean_z > 0.0, "late z {}", f.late_mean_z);
+    let lw = method(&f, "liftwatch");
+    let delay = lw
+        .delay_days
+        .expect("liftwatch must detect a doubled friction");
+    assert!((0.0..1.5).contains(&delay), "delay {delay} days");
+    // A step: the true severity at detection is the full step.
+    assert_eq!(lw.severity_at_detection, Some(4.0));
+    assert!(
+        lw.mode.is_some() && lw.mode != Some(Named::Sensor),
+        "{lw:?}"
+    );
+    let th = method(&f, "threshold");
+    assert!(th.delay_days.is_some(), "{th:?}");
+    assert!(th.flicker.is_some());
+    assert!(method(&f, "cusum").flicker.is_none());
+
+    let agg = evaluate::aggregate(&[h, f]);
+    let lw_fric = agg
+        .iter()
+        .find(|a| a.method == "liftwatch" && a.truth == Truth::Friction)
+        .unwrap();
+    assert_eq!((lw_fric.cases, lw_fric.missed), (1, 0));
+    assert_eq!(lw_fric.worst_delay_days, Some(delay));
+}

@@ -15,8 +15,25 @@ use crate::ReportInputs;
 
 /// Pixel columns a full-width series is thinned to.
 const COLUMNS: usize = 1100;
-/// Length of an excerpt (s).
+/// Length of the preprocessing excerpt (s).
 const EXCERPT_S: f64 = 1200.0;
+/// Length of the fit excerpt (s): short enough to see each trip's shape.
+const FIT_EXCERPT_S: f64 = 360.0;
+
+/// The paper's symbol of a physical parameter named as in [`PhysParams::NAMES`].
+fn symbol(name: &str) -> &str {
+    match name {
+        "delta_m" => "Δm",
+        "m0" => "M0",
+        "f_c" => "F_c",
+        "c_visc" => "c",
+        "kd" => "Kd",
+        "ke" => "Ke",
+        "u0" => "U0",
+        "alpha_down" => "α_down",
+        other => other,
+    }
+}
 
 /// One figure of the report and its text.
 pub(crate) struct Section {
@@ -149,12 +166,12 @@ impl<'a> Ctx<'a> {
         &self.inp.features.rows
     }
 
-    /// The `EXCERPT_S` window with the most moving samples that have voltage and load, among
+    /// The `len_s` window with the most moving samples that have voltage and load, among
     /// windows starting at or after fraction `from` of the data.
-    fn busiest(&self, from: f64) -> (f64, f64) {
+    fn busiest(&self, from: f64, len_s: f64) -> (f64, f64) {
         let rows = self.rows();
         let n = rows.len();
-        let w = ((EXCERPT_S / self.step).round() as usize).max(2);
+        let w = ((len_s / self.step).round() as usize).max(2);
         if n <= w {
             return (self.start, self.end);
         }
@@ -224,7 +241,7 @@ fn whole_line(c: &Ctx, t: &[f64], y: &[f64]) -> Vec<(f64, f64)> {
 /// All sections, in report order.
 pub(crate) fn all(inp: &ReportInputs) -> Vec<Section> {
     let c = Ctx::new(inp);
-    let (pa, pb) = c.busiest(0.0);
+    let (pa, pb) = c.busiest(0.0, EXCERPT_S);
     vec![
         preprocessing(&c, pa, pb),
         acceleration(&c, pa, pb),
@@ -586,30 +603,23 @@ fn parameters(c: &Ctx) -> Section {
     let final_theta = c.inp.model.parameters.to_array();
     let mut panels = Vec::new();
     let mut rows_html = Vec::new();
-    for k in 0..PhysParams::NAMES.len() {
-        let name = PhysParams::NAMES[k];
-        let unit = PhysParams::UNITS[k];
-        let vals: Vec<f64> = h.iter().map(|p| p.theta[k]).collect();
-        let (lo, hi) = robust_range(&vals, 0.0, 1.0, &[final_theta[k]]);
+    for (k, (&name, &unit)) in PhysParams::NAMES.iter().zip(PhysParams::UNITS.iter()).enumerate() {
+        let value = final_theta.get(k).copied().unwrap_or(f64::NAN);
+        let vals: Vec<f64> = h.iter().map(|p| p.theta.get(k).copied().unwrap_or(f64::NAN)).collect();
+        let (lo, hi) = robust_range(&vals, 0.0, 1.0, &[value]);
         let report = fit.parameters.iter().find(|r| r.name == name);
         let se = report.and_then(|r| r.std_error).unwrap_or(f64::NAN);
+        let sym = symbol(name);
         let mut p = Panel::new(
-            format!("{name} = {} ({unit})", num(final_theta[k])),
+            format!("{sym} = {} {unit}  ({name})", num(value)),
             Axis::new(x0, x1, "iteration"),
-            Axis::new(lo, hi, unit),
+            Axis::new(lo, hi, format!("{sym} ({unit})")),
         );
-        p.marks.push(Mark::HLine {
-            y: final_theta[k],
-            color: GREY,
-            dash: Dash::Dashed,
-            label: None,
-        });
-        p.marks.push(Mark::Line {
-            pts: it.iter().copied().zip(vals).collect(),
-            color: BLUE,
-            width: 3,
-            label: None,
-        });
+        p.marks.push(Mark::HLine { y: value, color: GREY, dash: Dash::Dashed, label: None });
+        for sign in [-1.0, 1.0] {
+            p.marks.push(Mark::HLine { y: value + sign * se, color: GREEN, dash: Dash::Dashed, label: None });
+        }
+        p.marks.push(Mark::Line { pts: it.iter().copied().zip(vals).collect(), color: BLUE, width: 3, label: None });
         p.legend = Legend::None;
         panels.push(p);
         let by = match report {
@@ -619,7 +629,7 @@ fn parameters(c: &Ctx) -> Section {
         };
         rows_html.push(format!(
             "<tr><td>{name}</td><td>{}</td><td>{}</td><td>{unit}</td><td>{by}</td></tr>",
-            num(final_theta[k]),
+            num(value),
             num(se)
         ));
     }
@@ -627,6 +637,8 @@ fn parameters(c: &Ctx) -> Section {
         "<table><tr><th>parameter</th><th>value</th><th>std. error</th><th>unit</th><th>decided by</th></tr>{}</table>",
         rows_html.join("")
     );
+    let cols = if panels.len() <= 8 { 4 } else { 5 };
+    let grid = (panels.len().div_ceil(cols).max(1), cols);
     let determined = fit
         .parameters
         .iter()
@@ -634,7 +646,8 @@ fn parameters(c: &Ctx) -> Section {
         .count();
     let mut text = vec![
         format!(
-            "Each panel follows one physical parameter through the fit (dashed: final value). {determined} of the {} \
+            "Each panel follows one physical parameter through the fit (grey dashed: final value; green dashed: ± one \
+             standard error, where it falls inside the panel). {determined} of the {} \
              parameters are determined by the data (standard error at least three times narrower than the prior); the \
              others stay near their prior. Standard errors treat samples as independent, so they are lower bounds.",
             PhysParams::NAMES.len()
@@ -648,8 +661,8 @@ fn parameters(c: &Ctx) -> Section {
         figure: Figure {
             name: "parameters".into(),
             width: 1600,
-            height: 760,
-            grid: (2, 4),
+            height: 380 * grid.0 as u32,
+            grid,
             panels,
         },
         heading: "Training: convergence of the physical parameters".into(),
@@ -658,7 +671,7 @@ fn parameters(c: &Ctx) -> Section {
 }
 
 fn fit(c: &Ctx) -> Section {
-    let (a, b) = c.busiest(0.75);
+    let (a, b) = c.busiest(0.75, FIT_EXCERPT_S);
     let time = Time::excerpt(c.start, a, b);
     let m = c.inp.model;
     let rows: Vec<&FeatureRow> = c.rows().iter().filter(|r| r.time >= a && r.time <= b).collect();

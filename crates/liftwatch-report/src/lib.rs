@@ -135,3 +135,98 @@ pub fn write_report(dir: &Path, inputs: &ReportInputs) -> Result<Vec<PathBuf>, E
     written.push(index);
     Ok(written)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use liftwatch::model::TrainConfig;
+    use liftwatch::sim::SimConfig;
+    use liftwatch::Elevator;
+
+    /// A temporary directory removed on drop.
+    struct TempDir(PathBuf);
+
+    impl TempDir {
+        fn new(tag: &str) -> TempDir {
+            let p = std::env::temp_dir().join(format!("liftwatch-report-{tag}-{}", std::process::id()));
+            let _ = std::fs::remove_dir_all(&p);
+            TempDir(p)
+        }
+    }
+
+    impl Drop for TempDir {
+        fn drop(&mut self) {
+            let _ = std::fs::remove_dir_all(&self.0);
+        }
+    }
+
+    #[test]
+    fn report_writes_every_figure_and_an_index_that_shows_them() {
+        let elevator = Elevator::new(1000.0, 1.6, 16);
+        let sim = liftwatch::sim::simulate(&SimConfig::new(elevator.clone(), 0.4, 11)).expect("valid simulator settings");
+        let series = sim.aligned();
+        let cfg = TrainConfig { epochs: 60, ..TrainConfig::default() };
+        let model = liftwatch::model::fit(&series, &elevator, &cfg, &mut |_| {}).expect("0.4 simulated days fit").model;
+        let features = liftwatch::features::extract(&series, &model.features);
+        let pinn = monitor_rows(&model, &series, Method::Pinn);
+        let threshold = monitor_rows(&model, &series, Method::Threshold);
+        assert_eq!(pinn.len(), series.len(), "one monitor row per sample");
+        let events: Vec<Event> = pinn.iter().filter_map(|r| r.event).collect();
+        let inputs = ReportInputs {
+            model: &model,
+            series: &series,
+            features: &features,
+            pinn: &pinn,
+            threshold: &threshold,
+            events: &events,
+            source: "sim <seed 11>.csv",
+        };
+        let dir = TempDir::new("all");
+        let written = write_report(&dir.0, &inputs).expect("report is written");
+        assert_eq!(written.len(), 2 * FIGURES.len() + 1);
+        let index = std::fs::read_to_string(dir.0.join("index.html")).expect("index.html exists");
+        assert!(index.contains("sim &lt;seed 11&gt;.csv"), "the source name is escaped");
+        for name in FIGURES {
+            for ext in ["svg", "png"] {
+                let path = dir.0.join(format!("{name}.{ext}"));
+                let len = std::fs::metadata(&path).map(|m| m.len()).unwrap_or(0);
+                assert!(len > 1000, "{} has {len} bytes", path.display());
+            }
+            let png = std::fs::read(dir.0.join(format!("{name}.png"))).expect("png is readable");
+            assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n", "{name}.png is a PNG");
+            let svg = std::fs::read_to_string(dir.0.join(format!("{name}.svg"))).expect("svg is text");
+            assert!(svg.trim_start().starts_with("<svg"), "{name}.svg starts with <svg");
+            assert!(svg.trim_end().ends_with("</svg>"), "{name}.svg is complete");
+            assert_eq!(svg.matches("<text").count(), svg.matches("</text>").count(), "{name}.svg text elements balance");
+            assert!(index.contains(&format!("<img src=\"{name}.svg\"")), "index.html shows {name}.svg");
+        }
+        // The axis descriptions are in the SVGs as text.
+        let text = |name: &str| std::fs::read_to_string(dir.0.join(format!("{name}.svg"))).expect("svg is text");
+        for (name, label) in [
+            ("preprocessing", "velocity (m/s)"),
+            ("preprocessing", "load (% of rated)"),
+            ("acceleration", "acceleration (m/s²)"),
+            ("training", "iteration"),
+            ("fit", "voltage (V)"),
+            ("fit", "force (N, + up)"),
+            ("residuals", "r_U (V)"),
+            ("risk", "risk R (1)"),
+            ("risk", "time since start of data (h)"),
+            ("comparison", "baseline state"),
+            ("usage", "hour of day"),
+        ] {
+            let svg = text(name);
+            let escaped = label.replace('&', "&amp;");
+            assert!(svg.contains(label) || svg.contains(&escaped), "{name}.svg lacks the axis label `{label}`");
+        }
+        // Numbers come from the data: the trip count of the usage text is the features' count.
+        assert!(index.contains(&format!("{} complete trips", features.trips.len())));
+        assert!(!index.contains("NaN") && !index.contains("TODO"));
+        // An empty series is refused before anything is written.
+        let empty = AlignedSeries::default();
+        let none = ReportInputs { series: &empty, pinn: &[], threshold: &[], events: &[], ..inputs };
+        let missing = dir.0.join("empty");
+        assert!(matches!(write_report(&missing, &none), Err(Error::NoData(_))));
+        assert!(!missing.exists());
+    }
+}

@@ -295,24 +295,23 @@ fn font(size: f64) -> TextStyle<'static> {
     (FONT, size).into_font().color(&BLACK)
 }
 
-/// A tick label with as many decimals as the tick spacing needs.
+/// A tick label with as many decimals as the tick spacing needs (one more than the spacing's
+/// leading digit, trailing zeros dropped: `0.25`, `0.5`, `1500`).
 pub fn fmt_tick(v: f64, span: f64) -> String {
     let step = span.abs() / 6.0;
-    let decimals = if step >= 1.0 || step <= 0.0 {
-        0
-    } else {
-        (-step.log10()).ceil().clamp(0.0, 6.0) as usize
-    };
+    let decimals = if step >= 10.0 || step <= 0.0 { 0 } else { ((-step.log10()).ceil() + 1.0).clamp(0.0, 7.0) as usize };
     let a = v.abs();
-    if a != 0.0 && (a >= 1e6 || (decimals > 4 && a < 1e-3)) {
+    if a != 0.0 && (a >= 1e6 || (decimals > 5 && a < 1e-4)) {
         return format!("{v:.1e}");
     }
-    let s = format!("{v:.decimals$}");
-    if s.starts_with('-') && s[1..].chars().all(|c| c == '0' || c == '.') {
-        s[1..].to_string()
-    } else {
-        s
+    let mut s = format!("{v:.decimals$}");
+    if s.contains('.') {
+        s = s.trim_end_matches('0').trim_end_matches('.').to_string();
     }
+    if s == "-0" {
+        s = "0".into();
+    }
+    s
 }
 
 /// A decade label: `0.01`, `1`, `1000`, `1e-5`.
@@ -328,8 +327,11 @@ fn fmt_decade(e: f64) -> String {
 fn draw_figure<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, fig: &Figure) -> Result<(), String> {
     root.fill(&WHITE).map_err(|e| e.to_string())?;
     let cells = root.split_evenly(fig.grid);
-    for (panel, area) in fig.panels.iter().zip(cells.iter()) {
-        draw_panel(area, panel).map_err(|e| format!("panel `{}`: {e}", panel.title))?;
+    let (rows, cols) = fig.grid;
+    for (i, (panel, area)) in fig.panels.iter().zip(cells.iter()).enumerate() {
+        // A single column shares its time axis: only the bottom panel names it.
+        let x_desc = cols != 1 || i + 1 >= rows;
+        draw_panel(area, panel, x_desc).map_err(|e| format!("panel `{}`: {e}", panel.title))?;
     }
     Ok(())
 }
@@ -351,52 +353,103 @@ fn segments(pts: &[(f64, f64)]) -> Vec<Vec<(f64, f64)>> {
     out
 }
 
-fn draw_panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, p: &Panel) -> Result<(), String> {
+/// Splits a polyline where it turns back sharply (more than 120° in pixel space, `scale`
+/// px per data unit). The bitmap backend joins thick segments with unlimited miters, which
+/// turn a min/max zig-zag into long spikes; pieces that meet at a vertex have no join there.
+fn split_sharp_turns(seg: Vec<(f64, f64)>, scale: (f64, f64)) -> Vec<Vec<(f64, f64)>> {
+    let mut out = Vec::new();
+    let mut cur: Vec<(f64, f64)> = Vec::new();
+    for p in seg {
+        if cur.len() >= 2 {
+            let (a, b) = (cur[cur.len() - 2], cur[cur.len() - 1]);
+            let u = ((b.0 - a.0) * scale.0, (b.1 - a.1) * scale.1);
+            let v = ((p.0 - b.0) * scale.0, (p.1 - b.1) * scale.1);
+            let (nu, nv) = (u.0.hypot(u.1), v.0.hypot(v.1));
+            if nu > 0.0 && nv > 0.0 && (u.0 * v.0 + u.1 * v.1) / (nu * nv) < -0.5 {
+                out.push(std::mem::replace(&mut cur, vec![b]));
+            }
+        }
+        if cur.last() != Some(&p) {
+            cur.push(p);
+        }
+    }
+    if !cur.is_empty() {
+        out.push(cur);
+    }
+    out
+}
+
+/// Tick values for a log axis over `[a, b]` (values, a > 0): decades when it spans more
+/// than one, else evenly spaced round values.
+fn log_ticks(a: f64, b: f64) -> Vec<(f64, String)> {
+    let (la, lb) = (a.log10(), b.log10());
+    if lb - la >= 1.0 {
+        let mut v: Vec<(f64, String)> = (la.ceil() as i32..=lb.floor() as i32).map(|k| (f64::from(k), fmt_decade(f64::from(k)))).collect();
+        if v.len() <= 2 {
+            for k in la.floor() as i32..=lb.ceil() as i32 {
+                for m in [2.0, 5.0] {
+                    let x = f64::from(k) + f64::log10(m);
+                    if x >= la && x <= lb {
+                        v.push((x, fmt_tick(10f64.powf(x), 10f64.powf(x) * 3.0)));
+                    }
+                }
+            }
+        }
+        v
+    } else {
+        let raw = (b - a) / 5.0;
+        let mag = 10f64.powf(raw.log10().floor());
+        let step = [1.0, 2.0, 2.5, 5.0, 10.0].iter().map(|m| m * mag).find(|s| *s >= raw).unwrap_or(10.0 * mag);
+        let mut v = Vec::new();
+        let mut x = (a / step).ceil() * step;
+        while x <= b && v.len() < 12 {
+            v.push((x.log10(), fmt_tick(x, 6.0 * step)));
+            x += step;
+        }
+        v
+    }
+}
+
+fn draw_panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, p: &Panel, x_desc: bool) -> Result<(), String> {
     let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
     let (x0, x1) = p.x.range();
-    let (y0, y1) = p.y.range();
+    let (y0, mut y1) = p.y.range();
+    let labelled = p.marks.iter().any(|m| match m {
+        Mark::Line { label, .. } | Mark::Dots { label, .. } | Mark::HLine { label, .. } | Mark::VLine { label, .. } | Mark::Bars { label, .. } => label.is_some(),
+        Mark::Band { .. } => false,
+    });
+    if labelled && matches!(p.legend, Legend::UpperLeft | Legend::UpperRight) {
+        // Headroom for the legend box, so that it does not hide the data.
+        let n = p.marks.iter().filter(|m| matches!(m, Mark::Line { label: Some(_), .. } | Mark::Dots { label: Some(_), .. } | Mark::HLine { label: Some(_), .. } | Mark::VLine { label: Some(_), .. } | Mark::Bars { label: Some(_), .. })).count();
+        y1 += (y1 - y0) * (0.12 + 0.1 * n as f64).min(0.6);
+    }
     let mut chart = ChartBuilder::on(area)
         .caption(&p.title, font(TITLE_PT))
         .margin_left(12)
         .margin_right(28)
         .margin_top(6)
         .margin_bottom(6)
-        .x_label_area_size(58)
+        .x_label_area_size(if x_desc { 62 } else { 36 })
         .y_label_area_size(100)
         .build_cartesian_2d(x0..x1, y0..y1)
         .map_err(e)?;
-    let (x_span, y_span) = (x1 - x0, y1 - y0);
+    let (pw, ph) = chart.plotting_area().dim_in_pixel();
+    let scale = (f64::from(pw) / (x1 - x0).max(1e-300), f64::from(ph) / (y1 - y0).max(1e-300));
+    let (x_span, y_span) = (x1 - x0, p.y.range().1 - y0);
     let xf = |v: &f64| fmt_tick(*v, x_span);
-    let y_log = p.y.log;
-    let custom: Vec<(f64, String)> = p.y_ticks.iter().map(|(v, s)| (p.y.map(*v), s.clone())).collect();
-    let yf = |v: &f64| {
-        if !custom.is_empty() {
-            custom
-                .iter()
-                .find(|(c, _)| (c - v).abs() < 1e-9 * y_span.max(1e-300))
-                .map(|(_, s)| s.clone())
-                .unwrap_or_default()
-        } else if y_log {
-            if (v - v.round()).abs() < 1e-6 {
-                fmt_decade(v.round())
-            } else {
-                String::new()
-            }
-        } else {
-            fmt_tick(*v, y_span)
-        }
-    };
-    let y_labels = if !custom.is_empty() {
-        // Ticks at the custom values only: ask for many and label the matching ones.
-        ((y_span / 1.0).round() as usize + 1).clamp(2, 12)
-    } else if y_log {
-        (y_span.round() as usize + 1).clamp(2, 12)
+    // Own ticks (drawn below) for custom labels and log axes; plotters' for the rest.
+    let own: Vec<(f64, String)> = if !p.y_ticks.is_empty() {
+        p.y_ticks.iter().map(|(v, s)| (p.y.map(*v), s.clone())).collect()
+    } else if p.y.log {
+        log_ticks(p.y.min, 10f64.powf(y1))
     } else {
-        6
+        Vec::new()
     };
+    let yf = |v: &f64| fmt_tick(*v, y_span);
+    let y_labels = if own.is_empty() { 6 } else { 0 };
     chart
         .configure_mesh()
-        .x_desc(p.x.label.as_str())
+        .x_desc(if x_desc { p.x.label.as_str() } else { "" })
         .y_desc(p.y.label.as_str())
         .label_style(font(TICK_PT))
         .axis_desc_style(font(DESC_PT))
@@ -404,10 +457,24 @@ fn draw_panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, p: &Panel) -> R
         .y_labels(y_labels)
         .x_label_formatter(&xf)
         .y_label_formatter(&yf)
-        .light_line_style(RGBColor(235, 235, 235))
-        .bold_line_style(RGBColor(210, 210, 210))
+        .max_light_lines(1)
+        .light_line_style(RGBColor(242, 242, 242))
+        .bold_line_style(RGBColor(215, 215, 215))
         .draw()
         .map_err(e)?;
+    let tick_style = font(TICK_PT).pos(plotters::style::text_anchor::Pos::new(
+        plotters::style::text_anchor::HPos::Right,
+        plotters::style::text_anchor::VPos::Center,
+    ));
+    for (v, text) in own.iter().filter(|(v, _)| *v >= y0 && *v <= y1) {
+        chart.draw_series(LineSeries::new(vec![(x0, *v), (x1, *v)], RGBColor(215, 215, 215))).map_err(e)?;
+        chart
+            .draw_series(std::iter::once(EmptyElement::at((x0, *v)) + Text::new(text.clone(), (-10, 0), tick_style.clone())))
+            .map_err(e)?;
+        chart
+            .draw_series(std::iter::once(EmptyElement::at((x0, *v)) + PathElement::new(vec![(-6, 0), (0, 0)], BLACK)))
+            .map_err(e)?;
+    }
     let mut any_label = false;
     for m in &p.marks {
         match m {
@@ -431,7 +498,8 @@ fn draw_panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, p: &Panel) -> R
                 let mapped: Vec<(f64, f64)> = pts.iter().map(|(x, y)| (p.x.map(*x), p.y.map(*y))).collect();
                 let style = color.stroke_width(*width);
                 let mut first = true;
-                for seg in segments(&mapped) {
+                let pieces = segments(&mapped).into_iter().flat_map(|s| if *width > 1 { split_sharp_turns(s, scale) } else { vec![s] });
+                for seg in pieces {
                     if seg.len() == 1 {
                         chart
                             .draw_series(std::iter::once(Circle::new(seg[0], 1 + *width / 2, color.filled())))
@@ -692,6 +760,8 @@ mod tests {
     fn tick_labels_have_the_decimals_the_spacing_needs() {
         assert_eq!(fmt_tick(0.25, 1.0), "0.25");
         assert_eq!(fmt_tick(1500.0, 3000.0), "1500");
-        assert_eq!(fmt_tick(-0.0001, 1.0), "0.00");
+        assert_eq!(fmt_tick(-0.0001, 1.0), "0");
+        assert_eq!(fmt_tick(-436.5, 3.0), "-436.5");
+        assert_eq!(fmt_tick(0.00415, 0.0001), "0.00415");
     }
 }

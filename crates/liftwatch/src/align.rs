@@ -660,7 +660,10 @@ pub fn align_reader<R: Read + Seek, S: SampleSink>(
     cfg.validate()?;
     let mut plan = None;
     let mut late_line = None;
-    for pass in 1.. {
+    // At most four passes: pass-through, re-step, restart for `current`, full sort.
+    let mut pass = 0;
+    loop {
+        pass += 1;
         if pass > 1 {
             input
                 .seek(SeekFrom::Start(0))
@@ -704,7 +707,6 @@ pub fn align_reader<R: Read + Seek, S: SampleSink>(
             Outcome::LateCurrent => Plan::Stream { has_current: true },
         });
     }
-    unreachable!("the pass loop only ends by returning")
 }
 
 /// Aligns the telemetry file at `path`, streaming samples to `sink`; see [`align_reader`].
@@ -1176,6 +1178,41 @@ mod tests {
         assert_eq!(
             String::from_utf8(out).unwrap(),
             format!("{ALIGNED_HEADER}\n3,0.333333,0,,,,2\n")
+        );
+    }
+
+    #[test]
+    fn pending_readings_stay_within_the_window() {
+        // 6 signals at 1 Hz for a day: the buffers hold about (window + gap) s of
+        // readings, whatever the length of the input.
+        let cfg = AlignConfig::default().with_reorder_window(60.0).unwrap();
+        let mut sink = Vec::new();
+        let path = Path::new("t");
+        let mut engine = Engine::new(&cfg, path, &mut sink, false);
+        let mut most = 0;
+        for k in 0..86_400 {
+            for sig in &Signal::ALL[..6] {
+                let t = f64::from(k) + 0.1 * sig.index() as f64;
+                assert!(matches!(engine.push(*sig, t, 1.0).unwrap(), Push::Taken));
+            }
+            most = most.max(engine.tracks.iter().map(|t| t.pending.len()).max().unwrap());
+        }
+        engine.flush().unwrap();
+        assert!(most <= 60 + 5 + 2, "{most} readings pending in one signal");
+        assert_eq!(sink.len(), 86_400);
+    }
+
+    #[test]
+    fn aligned_input_with_a_bad_row_keeps_every_good_row() {
+        let text = "time,speed,direction,voltage,load,door,floor\n\
+                    0,0,1,1,1,0,1\n1,1,1,1,1,0,1\nbad,9,9,9,9,9,9\n2,2,1,1,1,0,1\n3,3,1,1,1,0,1\n";
+        let (s, r) = align_text(text, &AlignConfig::default()).unwrap();
+        assert_eq!(r.bad_rows, 1);
+        assert_eq!(r.rows_used, 4);
+        assert_eq!(times(&s), vec![0.0, 1.0, 2.0, 3.0]);
+        assert_eq!(
+            s.iter().map(|x| x.speed).collect::<Vec<_>>(),
+            vec![0.0, 1.0, 2.0, 3.0]
         );
     }
 

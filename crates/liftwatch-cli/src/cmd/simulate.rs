@@ -52,6 +52,9 @@ pub struct Args {
     /// Sensor dropouts per day and signal (each 1-15 min); 0 disables them.
     #[arg(long, default_value_t = 0.2)]
     pub dropouts_per_day: f64,
+    /// Hour of the first day the run starts at (0 = Monday midnight).
+    #[arg(long, default_value_t = 0.0)]
+    pub start_hour: f64,
     /// Traffic intensity multiplier.
     #[arg(long, default_value_t = 1.0)]
     pub traffic: f64,
@@ -67,6 +70,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let mut cfg = SimConfig::new(elevator, args.days, args.seed);
     cfg.dropouts_per_day = args.dropouts_per_day;
     cfg.traffic_scale = args.traffic;
+    cfg.start_s = args.start_hour * 3600.0;
     let span = cfg.duration_s();
     let mode: FaultMode = args.scenario.parse()?;
     let ramp: Ramp = args.ramp.parse()?;

@@ -187,6 +187,19 @@ fn the_same_seed_gives_the_same_telemetry() {
 }
 
 #[test]
+fn a_given_plant_is_kept_across_seeds_for_train_and_test_runs() {
+    let train = sim::simulate(&morning(0.05, 22)).unwrap();
+    let test = SimConfig {
+        seed: 23,
+        plant: Some(train.truth.plant.clone()),
+        ..morning(0.05, 23)
+    };
+    let test = sim::simulate(&test).unwrap();
+    assert_eq!(train.truth.parameters, test.truth.parameters);
+    assert!(train.raw != test.raw, "other seed, other traffic and noise");
+}
+
+#[test]
 fn fault_ramps_have_the_declared_onset_and_severity() {
     let base = SimConfig::new(elevator(), 1.0, 17);
     let healthy = sim::simulate(&base).unwrap();

@@ -16,6 +16,8 @@ pub struct Args {
 /// The subcommands.
 #[derive(Debug, Subcommand)]
 pub enum Command {
+    /// Run the whole method on built-in defaults: simulate, fit, watch a degradation, report.
+    Demo(cmd::demo::Args),
     /// Simulate a traction elevator and write its raw telemetry, aligned series and truth.
     Simulate(cmd::simulate::Args),
     /// Align raw `time,signal,value` telemetry to a uniform step.

@@ -15,8 +15,8 @@ pub enum Error {
     Io {
         /// The file concerned.
         path: PathBuf,
-        /// The operating-system error.
-        #[source]
+        /// The operating-system error (in the message, not chained as a cause, so that a
+        /// one-line `{:#}` print does not repeat it).
         source: std::io::Error,
     },
     /// The header matches neither the raw nor the aligned layout.

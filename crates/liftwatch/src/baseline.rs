@@ -55,7 +55,8 @@ impl BaselineLimits {
         let m_r = model.elevator.rated_load_kg;
         let f_u = p.force_from_voltage(x.s, x.v, x.voltage);
         let q = crate::model::PhysParams::relative_height(x.floor, model.elevator.floors);
-        let inertia_and_weight = (p.m0 + x.lambda * m_r) * x.a + (p.delta_m + x.lambda * m_r + p.m_rope * q) * G;
+        let inertia_and_weight =
+            (p.m0 + x.lambda * m_r) * x.a + (p.delta_m + x.lambda * m_r + p.m_rope * q) * G;
         let friction = f64::from(x.s) * (f_u - inertia_and_weight);
         let above_line = x.voltage - (p.u0 + p.ke * x.v.abs());
         (friction, above_line)

@@ -246,6 +246,10 @@ impl SensorCheck {
                     self.still_since = x.time;
                 }
             }
+        } else {
+            // A dropout of the speed signal is a gap, not a stuck reading.
+            self.moving_since = f64::NAN;
+            self.still_since = f64::NAN;
         }
         if x.floor.is_finite() {
             // The indicator may settle a few seconds after the car stops; a change after 10 s

@@ -24,7 +24,8 @@
 //! independent observations (see [`crate::risk`]).
 
 use crate::features::FeatureRow;
-use crate::model::{FittedModel, Prediction};
+use crate::model::net::{N_HID, N_IN, N_OUT, N_WEIGHTS};
+use crate::model::{FittedModel, Prediction, ResidualNet};
 
 /// The dual residuals of one sample. `NaN` marks a residual that is not applicable.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -100,7 +101,8 @@ pub fn applicable(x: &FeatureRow) -> bool {
     x.v.is_finite() && x.a.is_finite() && x.lambda.is_finite() && x.voltage.is_finite()
 }
 
-/// The network's inputs for a row: its own (v, λ, a) while moving; (0, λ, 0) at standstill.
+/// The network's inputs for a row: its own (v, λ, a) while moving; (0, λ, 0) at standstill,
+/// λ rounded to 0.001.
 ///
 /// Deviation from a literal reading of the model: below the motion threshold the encoder's
 /// speed and the acceleration estimate are noise around zero, the car is held by the brake,
@@ -111,10 +113,56 @@ pub fn applicable(x: &FeatureRow) -> bool {
 /// evaluated a few mm/s from rest, far below σ_U.
 pub fn net_inputs(x: &FeatureRow) -> (f64, f64, f64) {
     if x.s == 0 {
-        (0.0, x.lambda, 0.0)
+        // λ to 0.1 % of rated load: the door-closed reference is a running mean that moves in
+        // the last digits with every sample; the correction does not.
+        (0.0, (x.lambda * 1000.0).round() / 1000.0, 0.0)
     } else {
         (x.v, x.lambda, x.a)
     }
+}
+
+/// tanh(x) = 1 − 2/(e^{2x} + 1): within 3e-16 of `f64::tanh` (absolute), three times faster,
+/// and the 32 hidden units of a forward pass are most of the monitor's per-sample cost.
+#[inline]
+fn tanh(x: f64) -> f64 {
+    1.0 - 2.0 / ((2.0 * x).exp() + 1.0)
+}
+
+/// δ(x) = (δU, δF) of the network for the raw inputs (v, λ, a): the same layers as
+/// [`ResidualNet::forward`] with fixed-size blocks and the faster tanh.
+pub fn forward(net: &ResidualNet, v: f64, lambda: f64, a: f64) -> [f64; N_OUT] {
+    let w = net.weights.as_slice();
+    if w.len() != N_WEIGHTS {
+        return net.forward(v, lambda, a);
+    }
+    let x = net.scaled(v, lambda, a);
+    let (w1, rest) = w.split_at(N_HID * N_IN);
+    let (b1, rest) = rest.split_at(N_HID);
+    let (w2, rest) = rest.split_at(N_HID * N_HID);
+    let (b2, rest) = rest.split_at(N_HID);
+    let (w3, b3) = rest.split_at(N_OUT * N_HID);
+    let mut h1 = [0.0; N_HID];
+    for (j, h) in h1.iter_mut().enumerate() {
+        let r = &w1[j * N_IN..(j + 1) * N_IN];
+        *h = tanh(b1[j] + r[0] * x[0] + r[1] * x[1] + r[2] * x[2]);
+    }
+    let mut h2 = [0.0; N_HID];
+    for (j, h) in h2.iter_mut().enumerate() {
+        let r: &[f64; N_HID] = w2[j * N_HID..(j + 1) * N_HID]
+            .try_into()
+            .expect("a row of W2 has N_HID weights");
+        let mut z = b2[j];
+        for i in 0..N_HID {
+            z += r[i] * h1[i];
+        }
+        *h = tanh(z);
+    }
+    let mut y = [0.0; N_OUT];
+    for (k, yk) in y.iter_mut().enumerate() {
+        let r = &w3[k * N_HID..(k + 1) * N_HID];
+        *yk = b3[k] + r.iter().zip(&h2).map(|(a, b)| a * b).sum::<f64>();
+    }
+    [y[0] * net.output_scale[0], y[1] * net.output_scale[1]]
 }
 
 /// Memo of the last network output, keyed by the exact network inputs.
@@ -135,7 +183,7 @@ impl PredictionCache {
         let (v, lambda, a) = net_inputs(x);
         let key = [v.to_bits(), lambda.to_bits(), a.to_bits()];
         if self.key != Some(key) {
-            let [du, df] = model.net.forward(v, lambda, a);
+            let [du, df] = forward(&model.net, v, lambda, a);
             (self.key, self.du, self.df) = (Some(key), du, df);
         }
         let p = &model.parameters;
@@ -219,7 +267,7 @@ pub(crate) mod tests {
             },
             trip: None,
         };
-        x.voltage = model.predict(&x).u_pred + r_u;
+        x.voltage = PredictionCache::default().predict(model, &x).u_pred + r_u;
         x
     }
 
@@ -263,6 +311,29 @@ pub(crate) mod tests {
         x.voltage = f64::NAN;
         let r = Residuals::compute(&m, &x);
         assert!(r.r_u.is_nan() && r.r_f.is_nan() && r.e.is_nan());
+    }
+
+    #[test]
+    fn fast_forward_matches_the_network() {
+        let mut m = test_model();
+        let mut rng = crate::rng::Rng::new(9);
+        for w in &mut m.net.weights {
+            *w = rng.uniform(-1.0, 1.0);
+        }
+        for _ in 0..100 {
+            let (v, l, a) = (
+                rng.uniform(-2.0, 2.0),
+                rng.uniform(0.0, 1.0),
+                rng.uniform(-1.0, 1.0),
+            );
+            let (fast, slow) = (forward(&m.net, v, l, a), m.net.forward(v, l, a));
+            for k in 0..2 {
+                assert!(
+                    (fast[k] - slow[k]).abs() < 1e-12 * (1.0 + slow[k].abs()),
+                    "{fast:?} vs {slow:?}"
+                );
+            }
+        }
     }
 
     #[test]

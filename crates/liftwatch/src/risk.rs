@@ -220,10 +220,10 @@ pub struct RiskConfig {
 impl Default for RiskConfig {
     fn default() -> Self {
         let mut cfg = RiskConfig {
-            gamma: 0.99,
+            gamma: 0.998,
             kappa: 0.1,
             d_max_trips: 30.0,
-            forgetting_trips: 300.0,
+            forgetting_trips: 500.0,
             min_trip_samples: 3,
             trip_spread_u: [0.05, 1.0],
             trip_spread_f: [0.05, 1.0],
@@ -265,8 +265,11 @@ pub struct CalibrationSettings {
     /// Stated target of false advisories per elevator-year; calibration fails its own check
     /// (and says so in the report) when the validation run exceeds it.
     pub target_false_advisories_per_year: f64,
-    /// Alarm threshold as a multiple of the advisory threshold.
+    /// Alarm threshold, at least this multiple of the advisory threshold.
     pub alarm_factor: f64,
+    /// Alarm threshold, at least the risk a deviation of this many healthy spreads (z) reaches
+    /// when it persists: alarm means a large deviation, not only a long one.
+    pub alarm_z: f64,
 }
 
 impl Default for CalibrationSettings {
@@ -277,6 +280,7 @@ impl Default for CalibrationSettings {
             seed: 1,
             target_false_advisories_per_year: 1.0,
             alarm_factor: 4.0,
+            alarm_z: 5.0,
         }
     }
 }
@@ -285,6 +289,12 @@ impl RiskConfig {
     /// λ = 1 − 1/H: the forgetting factor of the re-identification per trip.
     pub fn forgetting(&self) -> f64 {
         1.0 - 1.0 / self.forgetting_trips.max(1.0)
+    }
+
+    /// R of an excess `x` on every trip, after the duration gain has saturated:
+    /// x·exp(κ·D_max)/(1 − γ).
+    pub fn steady_state(&self, x: f64) -> f64 {
+        x * (self.kappa * self.d_max_trips).exp() / (1.0 - self.gamma)
     }
 
     /// The lowest advisory threshold: the risk of 20 consecutive trips each 0.1 above τ.
@@ -343,7 +353,8 @@ impl RiskConfig {
     /// threshold is the highest combined risk it reaches (the level exceeded once in `years`
     /// years, so a nominal 1/`years` false advisories per year: a margin for what a
     /// bootstrap of a short record cannot show), never below [`RiskConfig::advisory_floor`];
-    /// the alarm threshold is `alarm_factor` times that. A second, independent bootstrap run
+    /// the alarm threshold is `alarm_factor` times that, and at least the steady risk of a
+    /// persistent deviation of `alarm_z` healthy spreads. A second, independent bootstrap run
     /// counts the false advisories per year with the final thresholds and hysteresis; the
     /// figure is stored in [`CalibrationReport`].
     ///
@@ -388,7 +399,9 @@ impl RiskConfig {
         let (max_r, max_modes) = bootstrap_maxima(&cfg, &trips, settings.block_s, total, &mut rng);
         let floor = cfg.advisory_floor();
         cfg.advisory = max_r.max(floor);
-        cfg.alarm = settings.alarm_factor.max(1.0) * cfg.advisory;
+        let tau_min = cfg.tau_modes.iter().fold(cfg.tau, |a, &b| a.min(b));
+        let persistent = cfg.steady_state(excess(settings.alarm_z.ln_1p(), tau_min));
+        cfg.alarm = (settings.alarm_factor.max(1.0) * cfg.advisory).max(persistent);
         for m in 0..N_MODES {
             cfg.advisory_modes[m] = max_modes[m].max(floor);
         }
@@ -1328,7 +1341,11 @@ mod scratch2 {
     #[ignore]
     fn scratch_real() {
         let model = crate::model::file::load(std::path::Path::new("/tmp/dw/m1.json")).unwrap();
-        let (series, _) = crate::align::read_series(std::path::Path::new(&std::env::var("SCR").unwrap()), &Default::default()).unwrap();
+        let (series, _) = crate::align::read_series(
+            std::path::Path::new(&std::env::var("SCR").unwrap()),
+            &Default::default(),
+        )
+        .unwrap();
         let f = crate::features::extract(&series, &model.features);
         let ev = trip_evidence(&model, &f.rows);
         let cfg = &model.risk;
@@ -1344,7 +1361,14 @@ mod scratch2 {
         eprintln!("max {mx}");
         let mut mon = crate::monitor::Monitor::new(&model, crate::monitor::Method::Pinn);
         let mut mxm = 0.0f64;
-        for x in &series.samples { if let Some(r) = mon.push(x) { mxm = mxm.max(r.risk); if let Some(e) = r.event { eprintln!("{}", e.to_json_line()); } } }
+        for x in &series.samples {
+            if let Some(r) = mon.push(x) {
+                mxm = mxm.max(r.risk);
+                if let Some(e) = r.event {
+                    eprintln!("{}", e.to_json_line());
+                }
+            }
+        }
         eprintln!("monitor max {mxm} trips {}", mon.state_ref().trips);
     }
 }

@@ -13,8 +13,8 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use liftwatch::align::{align_file, AlignConfig, SampleSink};
-use liftwatch::monitor::{Method, Monitor, MonitorRow, MonitorState, RowWriter};
 use liftwatch::model::{file, FittedModel};
+use liftwatch::monitor::{Method, Monitor, MonitorRow, MonitorState, RowWriter};
 use liftwatch::Sample;
 
 /// Flags of `liftwatch monitor`.
@@ -51,18 +51,28 @@ struct Staged {
 
 impl Staged {
     fn new(path: &Path) -> Staged {
-        let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
-        let name = path.file_name().map_or_else(|| "out".into(), |n| n.to_string_lossy().into_owned());
-        Staged { tmp: dir.join(format!(".{name}.tmp{}", std::process::id())), path: path.to_path_buf() }
+        let dir = path
+            .parent()
+            .filter(|p| !p.as_os_str().is_empty())
+            .unwrap_or(Path::new("."));
+        let name = path
+            .file_name()
+            .map_or_else(|| "out".into(), |n| n.to_string_lossy().into_owned());
+        Staged {
+            tmp: dir.join(format!(".{name}.tmp{}", std::process::id())),
+            path: path.to_path_buf(),
+        }
     }
 
     fn create(&self) -> anyhow::Result<BufWriter<File>> {
-        let f = File::create(&self.tmp).with_context(|| format!("cannot write {}", self.path.display()))?;
+        let f = File::create(&self.tmp)
+            .with_context(|| format!("cannot write {}", self.path.display()))?;
         Ok(BufWriter::with_capacity(1 << 16, f))
     }
 
     fn commit(&self) -> anyhow::Result<()> {
-        std::fs::rename(&self.tmp, &self.path).with_context(|| format!("cannot write {}", self.path.display()))
+        std::fs::rename(&self.tmp, &self.path)
+            .with_context(|| format!("cannot write {}", self.path.display()))
     }
 }
 
@@ -108,9 +118,12 @@ impl SampleSink for Sink<'_> {
             Some(st) => Monitor::resume(self.model, st)?,
             None => Monitor::new(self.model, self.method),
         };
-        let io = |e: anyhow::Error, p: &Path| liftwatch::Error::io(p, std::io::Error::other(format!("{e:#}")));
+        let io = |e: anyhow::Error, p: &Path| {
+            liftwatch::Error::io(p, std::io::Error::other(format!("{e:#}")))
+        };
         let file = self.out.create().map_err(|e| io(e, &self.out.path))?;
-        self.rows = Some(RowWriter::new(file).map_err(|e| liftwatch::Error::io(&self.out.path, e))?);
+        self.rows =
+            Some(RowWriter::new(file).map_err(|e| liftwatch::Error::io(&self.out.path, e))?);
         self.events = match self.events_file {
             Some(s) => Some(s.create().map_err(|e| io(e, &s.path))?),
             None => None,
@@ -123,12 +136,19 @@ impl SampleSink for Sink<'_> {
     fn push(&mut self, sample: &Sample) -> liftwatch::Result<()> {
         self.samples += 1;
         if self.samples % 5_000_000 == 0 {
-            eprintln!("monitor: {} samples, level {}", self.samples, self.monitor.state_ref().level());
+            eprintln!(
+                "monitor: {} samples, level {}",
+                self.samples,
+                self.monitor.state_ref().level()
+            );
         }
         if let Some(row) = self.monitor.push(sample) {
             if let Err(e) = self.write(&row) {
                 self.error = Some(e);
-                return Err(liftwatch::Error::io(&self.out.path, std::io::Error::other("write failed")));
+                return Err(liftwatch::Error::io(
+                    &self.out.path,
+                    std::io::Error::other("write failed"),
+                ));
             }
         }
         Ok(())
@@ -138,14 +158,22 @@ impl SampleSink for Sink<'_> {
 /// Runs `monitor`: model, streamed input, rows, events, state, one summary line.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let model = file::load(&args.model).context("cannot use the model")?;
-    model.risk.validate().with_context(|| format!("{}: risk settings", args.model.display()))?;
+    model
+        .risk
+        .validate()
+        .with_context(|| format!("{}: risk settings", args.model.display()))?;
     let method: Method = args.method.parse()?;
     let resume = match &args.state {
         Some(p) if p.exists() => {
             let st = MonitorState::load(p)?;
             Monitor::resume(&model, st.clone()).with_context(|| format!("{}", p.display()))?;
             if st.method != method {
-                anyhow::bail!("{}: state was written by method `{:?}`, not `{}`", p.display(), st.method, args.method);
+                anyhow::bail!(
+                    "{}: state was written by method `{:?}`, not `{}`",
+                    p.display(),
+                    st.method,
+                    args.method
+                );
             }
             Some(st)
         }
@@ -183,15 +211,18 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Some(p) => sink.monitor.state().save(p)?,
         None => {
             for row in sink.monitor.finish() {
-                sink.write(&row).with_context(|| format!("cannot write {}", args.out.display()))?;
+                sink.write(&row)
+                    .with_context(|| format!("cannot write {}", args.out.display()))?;
             }
         }
     }
     if let Some(w) = sink.rows.take() {
-        w.into_inner().with_context(|| format!("cannot write {}", args.out.display()))?;
+        w.into_inner()
+            .with_context(|| format!("cannot write {}", args.out.display()))?;
     }
     if let Some(mut f) = sink.events.take() {
-        f.flush().with_context(|| format!("cannot write events for {}", args.out.display()))?;
+        f.flush()
+            .with_context(|| format!("cannot write events for {}", args.out.display()))?;
     }
     out.commit()?;
     if let Some(e) = &events {

@@ -11,13 +11,13 @@ use std::path::PathBuf;
 #[non_exhaustive]
 pub enum Error {
     /// A file could not be opened, read or written.
-    #[error("{}: {source}", .path.display())]
+    #[error("{}: {err}", .path.display())]
     Io {
         /// The file concerned.
         path: PathBuf,
-        /// The operating-system error (in the message, not chained as a cause, so that a
-        /// one-line `{:#}` print does not repeat it).
-        source: std::io::Error,
+        /// The operating-system error. In the message, and deliberately not a chained cause
+        /// (thiserror would chain a field named `source`), so a one-line `{:#}` print states it once.
+        err: std::io::Error,
     },
     /// The header matches neither the raw nor the aligned layout.
     #[error("{}: unknown layout, expected header `time,signal,value` or `time,speed,direction,voltage,load,door,floor`", .path.display())]
@@ -95,6 +95,6 @@ pub type Result<T, E = Error> = std::result::Result<T, E>;
 impl Error {
     /// Wraps an I/O error with the path it concerns.
     pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
-        Error::Io { path: path.into(), source }
+        Error::Io { path: path.into(), err: source }
     }
 }

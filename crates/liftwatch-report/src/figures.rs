@@ -611,7 +611,7 @@ fn parameters(c: &Ctx) -> Section {
         let se = report.and_then(|r| r.std_error).unwrap_or(f64::NAN);
         let sym = symbol(name);
         let mut p = Panel::new(
-            format!("{sym} = {} {unit}  ({name})", num(value)),
+            format!("{sym} = {}{}  ({name})", num(value), if unit == "1" { String::new() } else { format!(" {unit}") }),
             Axis::new(x0, x1, "iteration"),
             Axis::new(lo, hi, format!("{sym} ({unit})")),
         );
@@ -637,7 +637,7 @@ fn parameters(c: &Ctx) -> Section {
         "<table><tr><th>parameter</th><th>value</th><th>std. error</th><th>unit</th><th>decided by</th></tr>{}</table>",
         rows_html.join("")
     );
-    let cols = if panels.len() <= 8 { 4 } else { 5 };
+    let cols = if panels.len() == 8 { 4 } else { 3 };
     let grid = (panels.len().div_ceil(cols).max(1), cols);
     let determined = fit
         .parameters
@@ -660,7 +660,7 @@ fn parameters(c: &Ctx) -> Section {
     Section {
         figure: Figure {
             name: "parameters".into(),
-            width: 1600,
+            width: 400 * grid.1 as u32,
             height: 380 * grid.0 as u32,
             grid,
             panels,
@@ -924,10 +924,19 @@ fn entries(rows: &[liftwatch::monitor::MonitorRow], level: Level) -> Vec<f64> {
     out
 }
 
-fn risk_axis(values: &[f64], thresholds: &[f64]) -> (f64, f64) {
+/// The risk axis: linear from zero while the thresholds and the bulk of the values are within
+/// a factor 50 of each other, else logarithmic from a twentieth of the lowest threshold, so that
+/// a low advisory threshold and a high alarm threshold are both readable.
+fn risk_axis(values: &[f64], thresholds: &[f64], label: &str) -> Axis {
     let top = quantile(values.iter().copied(), 0.995).max(0.0);
-    let t = thresholds.iter().copied().fold(0.0, f64::max);
-    (0.0, (1.08 * top).max(1.2 * t).max(1e-9))
+    let t_hi = thresholds.iter().copied().filter(|t| t.is_finite()).fold(0.0, f64::max);
+    let t_lo = thresholds.iter().copied().filter(|t| t.is_finite() && *t > 0.0).fold(f64::INFINITY, f64::min);
+    let hi = (1.08 * top).max(1.2 * t_hi).max(1e-9);
+    if t_lo.is_finite() && hi / t_lo > 50.0 {
+        Axis { min: t_lo / 20.0, max: 1.5 * hi, label: format!("{label}, log scale"), log: true }
+    } else {
+        Axis::new(0.0, hi, label)
+    }
 }
 
 fn risk(c: &Ctx) -> Section {
@@ -936,11 +945,10 @@ fn risk(c: &Ctx) -> Section {
     let t: Vec<f64> = rows.iter().map(|r| r.time).collect();
     let rk: Vec<f64> = rows.iter().map(|r| r.risk).collect();
     let x = c.whole.axis(c.start, c.end);
-    let (lo, hi) = risk_axis(&rk, &[cfg.advisory, cfg.alarm]);
     let mut p1 = Panel::new(
         "Combined risk R (the paper's time-accumulated index)",
         x.clone(),
-        Axis::new(lo, hi, "risk R (1)"),
+        risk_axis(&rk, &[cfg.advisory, cfg.alarm], "risk R (1)"),
     );
     p1.marks.push(Mark::HLine {
         y: cfg.advisory,
@@ -993,26 +1001,25 @@ fn risk(c: &Ctx) -> Section {
                 .collect()
         })
         .collect();
-    let (lo, hi) = risk_axis(&per.concat(), &cfg.advisory_modes);
+    let y2 = risk_axis(&per.concat(), &cfg.advisory_modes, "risk R_m (1)");
     let mut p2 = Panel::new(
-        "Risk per fault mode, each with its own advisory threshold (dashed)",
+        "Risk per fault mode, with the advisory threshold of each mode (dashed)",
         x,
-        Axis::new(lo, hi, "risk R_m (1)"),
+        y2,
     );
-    for ((m, name, color), y) in modes.iter().zip(&per) {
-        p2.marks.push(Mark::HLine {
-            y: cfg.advisory_modes[*m],
-            color: *color,
-            dash: Dash::Dashed,
-            label: None,
-        });
-        p2.marks.push(Mark::Line {
-            pts: whole_line(c, &t, y),
-            color: *color,
-            width: 3,
-            label: Some(format!("{name}")),
-        });
+    let th = cfg.advisory_modes;
+    let shared = th.iter().all(|t| (t - th[0]).abs() <= 1e-9 * th[0].abs().max(1e-12));
+    if shared {
+        p2.marks.push(Mark::HLine { y: th[0], color: INK, dash: Dash::Dashed, label: Some("advisory threshold, all modes".into()) });
     }
+    for ((m, name, color), y) in modes.iter().zip(&per) {
+        if !shared {
+            p2.marks.push(Mark::HLine { y: th[*m], color: *color, dash: Dash::Dashed, label: None });
+        }
+        p2.marks.push(Mark::Line { pts: whole_line(c, &t, y), color: *color, width: 3, label: Some(name.to_string()) });
+    }
+    p2.headroom = Some(0.08);
+    p1.headroom = Some(0.08);
     p2.legend = Legend::UpperLeft;
     let max_r = rk.iter().copied().filter(|x| x.is_finite()).fold(0.0, f64::max);
     let adv = entries(rows, Level::Advisory);
@@ -1095,11 +1102,10 @@ fn comparison(c: &Ctx) -> Section {
     });
     let pt: Vec<f64> = c.inp.pinn.iter().map(|r| r.time).collect();
     let rk: Vec<f64> = c.inp.pinn.iter().map(|r| r.risk).collect();
-    let (lo, hi) = risk_axis(&rk, &[cfg.advisory, cfg.alarm]);
     let mut p2 = Panel::new(
         "liftwatch: combined risk on the same data",
         x,
-        Axis::new(lo, hi, "risk R (1)"),
+        risk_axis(&rk, &[cfg.advisory, cfg.alarm], "risk R (1)"),
     );
     p2.marks.push(Mark::HLine {
         y: cfg.advisory,

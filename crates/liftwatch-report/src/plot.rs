@@ -77,7 +77,7 @@ pub struct Axis {
     pub max: f64,
     /// Description with unit, e.g. `speed (m/s)`.
     pub label: String,
-    /// Decade-logarithmic axis (values ≤ 0 are not drawn).
+    /// Logarithmic axis; values at or below `min` (zero too) are drawn on its lower edge.
     pub log: bool,
 }
 
@@ -111,10 +111,8 @@ impl Axis {
             return f64::NAN;
         }
         if self.log {
-            if v <= 0.0 {
-                return f64::NAN;
-            }
-            v.log10().clamp(self.min.log10(), self.max.log10())
+            // At or below the range (zero included) is drawn on the lower edge.
+            v.max(self.min).log10().clamp(self.min.log10(), self.max.log10())
         } else {
             v.clamp(self.min, self.max)
         }
@@ -235,6 +233,9 @@ pub struct Panel {
     pub legend: Legend,
     /// Custom tick labels of the y axis (value, text); empty for automatic ticks.
     pub y_ticks: Vec<(f64, String)>,
+    /// Room added above the data for the legend, as a fraction of the range; `None` sizes it
+    /// by the number of legend entries when the legend sits at the top.
+    pub headroom: Option<f64>,
 }
 
 impl Panel {
@@ -247,6 +248,7 @@ impl Panel {
             marks: Vec::new(),
             legend: Legend::UpperRight,
             y_ticks: Vec::new(),
+            headroom: None,
         }
     }
 }
@@ -397,7 +399,7 @@ fn log_ticks(a: f64, b: f64) -> Vec<(f64, String)> {
         }
         v
     } else {
-        let raw = (b - a) / 5.0;
+        let raw = (b - a) / 7.0;
         let mag = 10f64.powf(raw.log10().floor());
         let step = [1.0, 2.0, 2.5, 5.0, 10.0].iter().map(|m| m * mag).find(|s| *s >= raw).unwrap_or(10.0 * mag);
         let mut v = Vec::new();
@@ -421,7 +423,7 @@ fn draw_panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, p: &Panel, x_de
     if labelled && matches!(p.legend, Legend::UpperLeft | Legend::UpperRight) {
         // Headroom for the legend box, so that it does not hide the data.
         let n = p.marks.iter().filter(|m| matches!(m, Mark::Line { label: Some(_), .. } | Mark::Dots { label: Some(_), .. } | Mark::HLine { label: Some(_), .. } | Mark::VLine { label: Some(_), .. } | Mark::Bars { label: Some(_), .. })).count();
-        y1 += (y1 - y0) * (0.12 + 0.1 * n as f64).min(0.6);
+        y1 += (y1 - y0) * p.headroom.unwrap_or((0.12 + 0.1 * n as f64).min(0.6));
     }
     let mut chart = ChartBuilder::on(area)
         .caption(&p.title, font(TITLE_PT))
@@ -453,7 +455,7 @@ fn draw_panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, p: &Panel, x_de
         .y_desc(p.y.label.as_str())
         .label_style(font(TICK_PT))
         .axis_desc_style(font(DESC_PT))
-        .x_labels(8)
+        .x_labels((pw as usize / 110).clamp(3, 10))
         .y_labels(y_labels)
         .x_label_formatter(&xf)
         .y_label_formatter(&yf)

@@ -454,7 +454,7 @@ fn acceleration(c: &Ctx, a: f64, b: f64) -> Section {
         width: 3,
         label: Some("fused a".into()),
     });
-    p.legend = Legend::LowerRight;
+    p.legend = Legend::UpperRight;
     // Agreement of the two paths over all moving samples of the data.
     let moving: Vec<&FeatureRow> = c
         .rows()
@@ -744,6 +744,19 @@ fn fit(c: &Ctx) -> Section {
     };
     let ru: Vec<f64> = u_meas.iter().zip(&u_pred).map(|(m, p)| m - p).collect();
     let rf: Vec<f64> = f_pred.iter().zip(&f_u).map(|(p, u)| p - u).collect();
+    let sc = m.scales;
+    let res_panel = |title: &str, sym: &str, unit: &str, r: &[f64], sigma: f64, color| {
+        let (lo, hi) = robust_range(r, 0.002, 0.998, &[-3.0 * sigma, 3.0 * sigma]);
+        let mut p = Panel::new(title, time.axis(a, b), Axis::new(lo, hi, format!("{sym} ({unit})")));
+        p.marks.push(Mark::HLine { y: 0.0, color: INK, dash: Dash::Solid, label: None });
+        p.marks.push(Mark::HLine { y: 2.0 * sigma, color: GREEN, dash: Dash::Dashed, label: Some(format!("±2σ healthy ({} {unit})", num(2.0 * sigma))) });
+        p.marks.push(Mark::HLine { y: -2.0 * sigma, color: GREEN, dash: Dash::Dashed, label: None });
+        p.marks.push(Mark::Line { pts: zip(r), color, width: 2, label: Some(sym.to_string()) });
+        p.marks.push(Mark::Dots { pts: zip(r), color, radius: 2, label: None });
+        p
+    };
+    let p3 = res_panel("Voltage residual r_U = U − U_pred", "r_U", "V", &ru, sc.sigma_u_v, BLUE);
+    let p4 = res_panel("Force residual r_F = F_pred − F_U", "r_F", "N", &rf, sc.sigma_f_n, ORANGE);
     let text = vec![format!(
         "The busiest {} of the last quarter of the data ({} to {} after its start), where a developing fault shows most. \
          Here the voltage residual r_U = U − U_pred has an RMS of {} V and the force residual r_F = F_pred − F_U an RMS of \
@@ -761,9 +774,9 @@ fn fit(c: &Ctx) -> Section {
         figure: Figure {
             name: "fit".into(),
             width: 1200,
-            height: 860,
-            grid: (2, 1),
-            panels: vec![p1, p2],
+            height: 1500,
+            grid: (4, 1),
+            panels: vec![p1, p2, p3, p4],
         },
         heading: "Fit: measured against predicted".into(),
         text,

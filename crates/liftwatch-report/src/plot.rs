@@ -423,7 +423,13 @@ fn draw_panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, p: &Panel, x_de
     if labelled && matches!(p.legend, Legend::UpperLeft | Legend::UpperRight) {
         // Headroom for the legend box, so that it does not hide the data.
         let n = p.marks.iter().filter(|m| matches!(m, Mark::Line { label: Some(_), .. } | Mark::Dots { label: Some(_), .. } | Mark::HLine { label: Some(_), .. } | Mark::VLine { label: Some(_), .. } | Mark::Bars { label: Some(_), .. })).count();
-        y1 += (y1 - y0) * p.headroom.unwrap_or((0.12 + 0.1 * n as f64).min(0.6));
+        // The legend box is about 16 px plus 27 px per entry; the plot about the area less
+        // the caption and the x labels.
+        let (_, area_h) = area.dim_in_pixel();
+        let plot_h = f64::from(area_h) - if x_desc { 110.0 } else { 84.0 };
+        let legend_h = 24.0 + 27.0 * n as f64;
+        let auto = (legend_h / (plot_h - legend_h).max(1.0)).clamp(0.1, 1.2);
+        y1 += (y1 - y0) * p.headroom.unwrap_or(auto);
     }
     let mut chart = ChartBuilder::on(area)
         .caption(&p.title, font(TITLE_PT))

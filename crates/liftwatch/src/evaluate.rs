@@ -27,6 +27,11 @@
 //! the same target (for the CUSUM the Siegmund approximation of the in-control ARL,
 //! [`cusum_arl`], is reported beside it as a check).
 //!
+//! One training day cannot show how the healthy trip-mean residual varies from day to day
+//! (traffic mix, weekends, the fit's own bias on unseen days), so the limits meet their target
+//! on the bootstrap, not necessarily on new days: the suite's healthy runs and pre-onset spans
+//! measure the out-of-sample false-signal rate, which is the figure to read.
+//!
 //! Metrics per method and case: detection delay from the onset (first advisory of liftwatch,
 //! first alarm of the threshold method, first signal of a chart), true severity σ at detection
 //! (a multiple of the mode's default effect, [`crate::sim::scenario`]), false signals before
@@ -208,9 +213,11 @@ pub enum ChartKind {
 
 /// The smallest limit (bisection) with at most `max_signals` signals over `stream`.
 pub fn calibrate_limit(stream: &[f64], chart: ChartKind, max_signals: usize) -> f64 {
-    let (mut lo, mut hi) = (0.0, 64.0);
-    if count_signals(stream, hi, chart) > max_signals {
-        return hi;
+    let (mut lo, mut hi) = (0.0, 8.0);
+    // Strongly drifting healthy data can need a limit far above the textbook one.
+    while count_signals(stream, hi, chart) > max_signals && hi < 1e6 {
+        lo = hi;
+        hi *= 2.0;
     }
     for _ in 0..40 {
         let mid = 0.5 * (lo + hi);
@@ -304,7 +311,7 @@ impl ChartCalibration {
         let mu0 = median(&xs);
         let dev: Vec<f64> = xs.iter().map(|x| (x - mu0).abs()).collect();
         let sigma0 = 1.4826 * median(&dev);
-        if !(sigma0 > 0.0) {
+        if sigma0.is_nan() || sigma0 <= 0.0 {
             return Err(Error::Unidentifiable(
                 "healthy trip means have no spread".into(),
             ));

@@ -565,7 +565,7 @@ fn training(c: &Ctx) -> Section {
     let first = h.first().map_or(f64::NAN, |p| p.loss);
     let text = vec![format!(
         "The fit has two stages: Gauss-Newton on the physical parameters θ alone (stage 1), then θ and the correcting \
-         network together (stage 2, {} iterations). The loss fell from {} to {} (a factor {}; {} after stage 1). Final RMS \
+         network together (stage 2, {} iterations). The loss went from {} to {} (a factor {}; {} at the end of stage 1). Final RMS \
          residuals on the {} moving training samples: r_U {} V and r_F {} N; the healthy scales that make residuals \
          dimensionless are σ_U = {} V and σ_F = {} N.",
         fit.iterations,
@@ -783,6 +783,23 @@ fn fit(c: &Ctx) -> Section {
     }
 }
 
+/// Trips in the running mean of the residual figure.
+const RUN_TRIPS: usize = 50;
+
+/// Centred running mean over `n` points of `(t, y)`, at each point with a full window.
+fn running_mean(pts: &[(f64, f64)], n: usize) -> Vec<(f64, f64)> {
+    if pts.len() < n || n == 0 {
+        return Vec::new();
+    }
+    let mut sum: f64 = pts[..n].iter().map(|p| p.1).sum();
+    let mut out = vec![(pts[n / 2].0, sum / n as f64)];
+    for i in n..pts.len() {
+        sum += pts[i].1 - pts[i - n].1;
+        out.push((pts[i - n / 2].0, sum / n as f64));
+    }
+    out
+}
+
 /// Mean of `y` per trip over the rows: (mid time, mean) per trip with at least 3 values.
 fn trip_means(rows: &[FeatureRow], y: &[f64]) -> Vec<(f64, f64)> {
     let mut out = Vec::new();
@@ -877,6 +894,7 @@ fn residuals(c: &Ctx) -> Section {
             radius: 2,
             label: Some("mean per trip".into()),
         });
+        p.marks.push(Mark::Line { pts: running_mean(&means, RUN_TRIPS).into_iter().map(|(t, v)| (c.whole.x(t), v)).collect(), color: INK, width: 3, label: Some(format!("running mean of {RUN_TRIPS} trips")) });
         p.legend = Legend::UpperLeft;
         panels.push(p);
         let k = (mv.len() / 10).max(1);
@@ -1016,14 +1034,14 @@ fn risk(c: &Ctx) -> Section {
         .collect();
     let y2 = risk_axis(&per.concat(), &cfg.advisory_modes, "risk R_m (1)");
     let mut p2 = Panel::new(
-        "Risk per fault mode, with the advisory threshold of each mode (dashed)",
+        "Risk per fault mode, with the per-mode threshold (dashed)",
         x,
         y2,
     );
     let th = cfg.advisory_modes;
     let shared = th.iter().all(|t| (t - th[0]).abs() <= 1e-9 * th[0].abs().max(1e-12));
     if shared {
-        p2.marks.push(Mark::HLine { y: th[0], color: INK, dash: Dash::Dashed, label: Some("advisory threshold, all modes".into()) });
+        p2.marks.push(Mark::HLine { y: th[0], color: INK, dash: Dash::Dashed, label: Some("per-mode threshold (same for all)".into()) });
     }
     for ((m, name, color), y) in modes.iter().zip(&per) {
         if !shared {
@@ -1055,9 +1073,19 @@ fn risk(c: &Ctx) -> Section {
         .collect();
     let mut text = vec![format!(
         "The risk accumulates the excess of each trip's combined residual over the healthy boundary and decays by γ = {} \
-         per trip; the thresholds were calibrated on the healthy fit to a stated false-advisory rate. Over this input R \
-         peaks at {}; {}; {}. The level at the end of the data is <b>{}</b>.",
+         per trip. {} Over this input R peaks at {}; {}; {}. The level at the end of the data is <b>{}</b>. On the \
+         logarithmic axes, a risk of zero lies on the lower edge. The per-mode threshold is the largest risk each mode \
+         reached in the healthy bootstrap of the fit; it attributes an episode to a mode.",
         num(cfg.gamma),
+        cfg.calibration.as_ref().map_or("The thresholds are the model file's settings.".to_string(), |k| format!(
+            "The thresholds were calibrated on {} healthy trips ({} h), bootstrapped to {} simulated years, for a target of {} \
+             false advisories per year (validated: {}).",
+            k.trips,
+            num(k.hours),
+            num(k.years_simulated),
+            num(k.target_false_advisories_per_year),
+            num(k.validated_false_advisories_per_year)
+        )),
         num(max_r),
         adv.first().map_or("it never reaches the advisory threshold".into(), |t| format!("it first reaches advisory after {}", span_text(t - c.start))),
         alm.first().map_or("no alarm is raised".into(), |t| format!("alarm after {}", span_text(t - c.start))),
@@ -1138,6 +1166,7 @@ fn comparison(c: &Ctx) -> Section {
         width: 3,
         label: Some("R".into()),
     });
+    p2.headroom = Some(0.08);
     for (p, with_label) in [(&mut p1, true), (&mut p2, false)] {
         if let Some(&t) = adv.first() {
             p.marks.push(Mark::VLine {
@@ -1170,6 +1199,10 @@ fn comparison(c: &Ctx) -> Section {
         span_text(persistent),
     )];
     text.push(match (adv.first(), before) {
+        (Some(t), Some(0)) => format!(
+            "liftwatch reached advisory after {}, before the baseline's first alarm.",
+            span_text(t - c.start)
+        ),
         (Some(t), Some(n)) => format!(
             "liftwatch reached advisory after {}, by which time the baseline had flickered into alarm {n} times; \
              its risk rises smoothly instead of switching on isolated samples.",

@@ -6,7 +6,8 @@
 //! alarm    → advisory   when R < ρ·alarm           ρ = release ratio, e.g. 0.5
 //! advisory → normal     when R < ρ·advisory
 //! sensor:  advisory while the data, not the machine, look wrong
-//! mode  = argmax_m R_m / A_m  when it exceeds the runner-up by the dominance factor, else unknown
+//! mode  = argmax_m R_m / A_m  when it is ≥ 0.5 and exceeds the runner-up by the dominance
+//!         factor, else unknown
 //! ```
 //!
 //! The hysteresis band keeps a level from flickering while R hovers at a threshold: R decays
@@ -205,8 +206,12 @@ impl AlarmState {
     }
 }
 
-/// The fault mode the per-mode risks point at: the largest scaled risk R_m/A_m when it
-/// exceeds the runner-up by `dominance`, `Unknown` otherwise.
+/// A mode is named only once its risk has reached half the level its healthy bootstrap
+/// reaches once in the simulated years: a trace of evidence is not a diagnosis.
+pub const MIN_SCALED_RISK: f64 = 0.5;
+
+/// The fault mode the per-mode risks point at: the largest scaled risk R_m/A_m when it is at
+/// least [`MIN_SCALED_RISK`] and exceeds the runner-up by `dominance`, `Unknown` otherwise.
 pub fn attribute(risk_modes: &[f64; N_MODES], cfg: &RiskConfig) -> FaultMode {
     let q: Vec<f64> = (0..N_MODES)
         .map(|m| risk_modes[m] / cfg.advisory_modes[m].max(f64::MIN_POSITIVE))
@@ -214,7 +219,7 @@ pub fn attribute(risk_modes: &[f64; N_MODES], cfg: &RiskConfig) -> FaultMode {
     let mut order = [MOTOR, BRAKE, FRICTION];
     order.sort_by(|a, b| q[*b].total_cmp(&q[*a]));
     let (best, second) = (q[order[0]], q[order[1]]);
-    if !(best > 0.0) || best < cfg.dominance * second {
+    if best.is_nan() || best < MIN_SCALED_RISK || best < cfg.dominance * second {
         return FaultMode::Unknown;
     }
     match order[0] {
@@ -289,6 +294,11 @@ mod tests {
         assert_eq!(attribute(&[300.0, 20.0, 50.0], &cfg), FaultMode::Motor);
         assert_eq!(attribute(&[300.0, 20.0, 280.0], &cfg), FaultMode::Unknown);
         assert_eq!(attribute(&[0.0, 0.0, 0.0], &cfg), FaultMode::Unknown);
+        assert_eq!(
+            attribute(&[10.0, 0.0, 0.0], &cfg),
+            FaultMode::Unknown,
+            "a trace is no diagnosis"
+        );
         assert_eq!(attribute(&[1.0, 90.0, 5.0], &cfg), FaultMode::Brake);
     }
 

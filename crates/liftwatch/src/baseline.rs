@@ -73,7 +73,7 @@ impl BaselineLimits {
         rows: &[FeatureRow],
         margin_frac: f64,
     ) -> Result<BaselineLimits> {
-        if !(margin_frac >= 0.0) {
+        if margin_frac.is_nan() || margin_frac < 0.0 {
             return Err(Error::InvalidConfig {
                 field: "baseline.margin_frac",
                 why: format!("{margin_frac} is negative"),

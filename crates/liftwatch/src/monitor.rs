@@ -18,6 +18,11 @@
 //! model; a state of another model is refused, which is also how acknowledging an alarm works:
 //! refit, and monitoring starts afresh (see [`crate::alarm`]).
 //!
+//! Events: one per change of level (DATA.md §4), plus one when an episode that opened with
+//! mode `unknown` gets its mode. The trip-level lens reacts within tens of trips, the
+//! re-identification that names the mode within a few hundred, so an advisory first says
+//! `unknown` and then, at the same level, `motor`, `brake` or `friction`.
+//!
 //! Sensor plausibility (DATA.md §4 `sensor`): a trip whose speed rose without the floor
 //! indicator changing, that started on another floor than the previous trip ended, that lasted
 //! longer than any healthy trip could (speed stuck), or during which the load reading left its
@@ -91,7 +96,8 @@ pub struct MonitorRow {
     pub risk_friction: f64,
     /// Level after this sample.
     pub level: Level,
-    /// Set when the level changed at this sample.
+    /// Set when the level changed at this sample, or when an episode opened as `unknown`
+    /// got its mode.
     pub event: Option<Event>,
     /// Extra column: combined scaled residual e.
     pub e: f64,
@@ -557,14 +563,25 @@ impl Monitor {
         st.alarm.update_machine(a.risk, cfg);
         let level = st.alarm.level();
         let mut event = None;
-        if level != before {
-            if before == Level::Normal {
-                st.episode_mode = if st.alarm.machine_level() == Level::Normal {
-                    FaultMode::Sensor
-                } else if st.alarm.sensor() && attribute(&a.risk_modes, cfg) == FaultMode::Unknown {
+        // An episode opened as `unknown` (trip-level evidence first: the regression needs more
+        // trips to move) is named as soon as one mode dominates; that is an event too.
+        let named = level == before
+            && level > Level::Normal
+            && st.episode_mode == FaultMode::Unknown
+            && attribute(&a.risk_modes, cfg) != FaultMode::Unknown;
+        if named {
+            st.episode_mode = attribute(&a.risk_modes, cfg);
+        }
+        if level != before || named {
+            if named {
+                // Named above, at the same level.
+            } else if before == Level::Normal {
+                let m = attribute(&a.risk_modes, cfg);
+                let sensor_only = st.alarm.machine_level() == Level::Normal;
+                st.episode_mode = if sensor_only || (st.alarm.sensor() && m == FaultMode::Unknown) {
                     FaultMode::Sensor
                 } else {
-                    attribute(&a.risk_modes, cfg)
+                    m
                 };
             } else if level > before {
                 // Escalation names the mode again: more evidence may have made it clear.

@@ -42,6 +42,9 @@
 //! - Thresholds are calibrated to a stated false-alarm rate by a moving-block bootstrap of the
 //!   healthy trip sequence ([`RiskConfig::calibrate`]); the paper gives no rule for them.
 
+// Three-by-three matrices and per-mode arrays read best with explicit indices.
+#![allow(clippy::needless_range_loop)]
+
 use serde::{Deserialize, Serialize};
 
 use crate::baseline::BaselineLimits;
@@ -328,7 +331,7 @@ impl RiskConfig {
         if !(self.d_max_trips >= 0.0 && self.d_max_trips <= 1000.0) {
             return bad("risk.d_max_trips", "expected 0 to 1000 trips");
         }
-        if !(self.forgetting_trips >= 10.0) {
+        if !(10.0..=1e9).contains(&self.forgetting_trips) {
             return bad("risk.forgetting_trips", "expected at least 10 trips");
         }
         if !(self.advisory > 0.0 && self.alarm >= self.advisory) {
@@ -775,7 +778,7 @@ fn unpack(p: &[f64; 6]) -> [[f64; 3]; 3] {
 fn spd_inverse(p: &[f64; 6]) -> Option<[[f64; 3]; 3]> {
     let a = unpack(p);
     let scale = (a[0][0] + a[1][1] + a[2][2]) / 3.0;
-    if !(scale > 0.0) || !scale.is_finite() {
+    if !(scale.is_finite() && scale > 0.0) {
         return None;
     }
     let mut l = [[0.0; 3]; 3];
@@ -1285,90 +1288,5 @@ pub(crate) mod tests {
         )
         .unwrap_err();
         assert!(err.to_string().contains("30 healthy trips"), "{err}");
-    }
-}
-#[cfg(test)]
-mod scratch {
-    use super::tests::*;
-    use super::*;
-    use crate::residual::tests::test_model;
-    #[test]
-    fn scratch_print() {
-        let m = test_model();
-        let cfg = calibrated(&m);
-        eprintln!("{cfg:#?}");
-        let h = synthetic_trips(&m, 99, 30.0, 0.0, &|_, _| 0.0);
-        let mut tr = RiskTracker::new(&cfg);
-        let mut mx = 0.0f64;
-        let mut mxm = [0.0f64; 3];
-        for t in &h {
-            let a = tr.push(&cfg, t);
-            mx = mx.max(a.risk);
-            for i in 0..3 {
-                mxm[i] = mxm[i].max(a.risk_modes[i]);
-            }
-        }
-        eprintln!("healthy 30d trips {} max risk {mx} modes {mxm:?}", h.len());
-        for (name, k) in [("motor", 0usize), ("brake", 1), ("fric", 2)] {
-            let days = 20.0;
-            let target = [0.10, 0.5, 0.25][k];
-            let f = move |t: f64, x: &[f64; 3]| target * (t / (days * 86_400.0)) * x[k];
-            let trips = synthetic_trips(&m, 5, days, 0.0, &f);
-            let mut tr = RiskTracker::new(&cfg);
-            let mut first = None;
-            for t in &trips {
-                let a = tr.push(&cfg, t);
-                if first.is_none() && a.risk >= cfg.advisory {
-                    first = Some((t.start / 86400.0, a));
-                }
-            }
-            eprintln!(
-                "{name} ramp to {target} over {days} d: first advisory {:?}",
-                first.map(|(d, a)| (
-                    d,
-                    d / days * target,
-                    crate::alarm::attribute(&a.risk_modes, &cfg),
-                    a.drift
-                ))
-            );
-        }
-    }
-}
-#[cfg(test)]
-mod scratch2 {
-    use super::*;
-    #[test]
-    #[ignore]
-    fn scratch_real() {
-        let model = crate::model::file::load(std::path::Path::new("/tmp/dw/m1.json")).unwrap();
-        let (series, _) = crate::align::read_series(
-            std::path::Path::new(&std::env::var("SCR").unwrap()),
-            &Default::default(),
-        )
-        .unwrap();
-        let f = crate::features::extract(&series, &model.features);
-        let ev = trip_evidence(&model, &f.rows);
-        let cfg = &model.risk;
-        let mut tr = RiskTracker::new(cfg);
-        let mut mx = 0.0f64;
-        for (k, t) in ev.iter().enumerate() {
-            let a = tr.push(cfg, t);
-            mx = mx.max(a.risk);
-            if k % 100 == 0 || (a.risk > 1.0 && k % 10 == 0) {
-                eprintln!("k {k} t {:.0} n {} e_trip {:.2} risk {:.2} modes {:.1?} drift {:.3?} se {:.3?} z {:.2?}", t.start, t.n, a.e_trip, a.risk, a.risk_modes, a.drift, a.drift_se, a.z);
-            }
-        }
-        eprintln!("max {mx}");
-        let mut mon = crate::monitor::Monitor::new(&model, crate::monitor::Method::Pinn);
-        let mut mxm = 0.0f64;
-        for x in &series.samples {
-            if let Some(r) = mon.push(x) {
-                mxm = mxm.max(r.risk);
-                if let Some(e) = r.event {
-                    eprintln!("{}", e.to_json_line());
-                }
-            }
-        }
-        eprintln!("monitor max {mxm} trips {}", mon.state_ref().trips);
     }
 }

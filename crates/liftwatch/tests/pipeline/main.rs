@@ -3,3 +3,4 @@ mod sim;
 mod features;
 mod align;
 mod evaluate;
+mod monitor;

@@ -649,7 +649,7 @@ fn parameters(c: &Ctx) -> Section {
             "Each panel follows one physical parameter through the fit (grey dashed: final value; green dashed: ± one \
              standard error, where it falls inside the panel). {determined} of the {} \
              parameters are determined by the data (standard error at least three times narrower than the prior); the \
-             others stay near their prior. Standard errors treat samples as independent, so they are lower bounds.",
+             rest stay near their prior. Standard errors treat samples as independent, so they are lower bounds.",
             PhysParams::NAMES.len()
         ),
         table,
@@ -1303,7 +1303,7 @@ fn usage(c: &Ctx) -> Section {
     }
     let hmax = hist.iter().map(|h| h.2).fold(0.0, f64::max);
     let mut p4 = Panel::new(
-        "Load per trip",
+        "Load per trip (histogram, 5 % bins)",
         Axis::new(b0 as f64 * bin, b1 as f64 * bin, "static load λ (% of rated load)"),
         Axis::new(0.0, (1.12 * hmax).max(1.0), "trips"),
     );
@@ -1314,9 +1314,9 @@ fn usage(c: &Ctx) -> Section {
     });
     p4.legend = Legend::None;
     let panels = vec![
-        bar_panel("Trips per hour", "trips per hour", tb.clone(), BLUE),
-        bar_panel("Door cycles per hour", "door openings per hour", db, GREEN),
-        bar_panel("Time moving", "moving (% of the hour)", mb, ORANGE),
+        bar_panel("Trips started per hour, by hour of day", "trips per hour", tb.clone(), BLUE),
+        bar_panel("Door cycles per hour, by hour of day", "door openings per hour", db, GREEN),
+        bar_panel("Time moving, by hour of day", "moving (% of the hour)", mb, ORANGE),
         p4,
     ];
     let days = observed.iter().sum::<f64>() / 86400.0;

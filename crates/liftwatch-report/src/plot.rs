@@ -461,7 +461,7 @@ fn draw_panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, p: &Panel, x_de
         .y_desc(p.y.label.as_str())
         .label_style(font(TICK_PT))
         .axis_desc_style(font(DESC_PT))
-        .x_labels((pw as usize / 110).clamp(3, 10))
+        .x_labels((pw as usize / 100).clamp(5, 10))
         .y_labels(y_labels)
         .x_label_formatter(&xf)
         .y_label_formatter(&yf)

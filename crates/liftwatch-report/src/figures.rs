@@ -284,7 +284,7 @@ fn preprocessing(c: &Ctx, a: f64, b: f64) -> Section {
     let vin = in_win(&rt, &v);
     let (lo, hi) = robust_range(&vin, 0.0, 1.0, &[0.0]);
     let mut p1 = Panel::new(
-        "Car velocity (shaded: trips)",
+        "Car velocity: encoder speed (grey) and signed v, + up (blue); shaded: trips",
         x.clone(),
         Axis::new(lo, hi, "velocity (m/s)"),
     );
@@ -301,11 +301,11 @@ fn preprocessing(c: &Ctx, a: f64, b: f64) -> Section {
         width: 2,
         label: Some("signed v (+ up)".into()),
     });
-    p1.legend = Legend::UpperRight;
+    p1.legend = Legend::None;
     let lin = in_win(&t, &load);
     let (lo, hi) = robust_range(&lin, 0.0, 1.0, &in_win(&rt, &lam));
     let mut p2 = Panel::new(
-        "Load-weighing sensor",
+        "Load-weighing sensor: reading (black) and static λ held from door close (orange)",
         x.clone(),
         Axis::new(lo.min(0.0), hi, "load (% of rated)"),
     );
@@ -322,6 +322,7 @@ fn preprocessing(c: &Ctx, a: f64, b: f64) -> Section {
         width: 3,
         label: Some("static λ, held from door close".into()),
     });
+    p2.legend = Legend::None;
     let mut p3 = Panel::new("Door", x.clone(), Axis::new(-0.15, 1.15, "door state"));
     p3.marks = bands.clone();
     p3.marks.push(Mark::Line {
@@ -698,7 +699,7 @@ fn fit(c: &Ctx) -> Section {
     let x = time.axis(a, b);
     let (lo, hi) = robust_range(&[u_meas.clone(), u_pred.clone()].concat(), 0.002, 0.998, &[0.0]);
     let mut p1 = Panel::new(
-        "Motor voltage: measured and predicted",
+        "Motor voltage: measured U (black) and predicted U_pred (orange)",
         x.clone(),
         Axis::new(lo, hi, "voltage (V)"),
     );
@@ -716,7 +717,7 @@ fn fit(c: &Ctx) -> Section {
     });
     let (lo, hi) = robust_range(&[f_u.clone(), f_pred.clone()].concat(), 0.002, 0.998, &[0.0]);
     let mut p2 = Panel::new(
-        "Driving force: implied by the voltage and predicted by the dynamics",
+        "Driving force: F_U implied by the measured voltage (black), F_pred predicted (blue)",
         x,
         Axis::new(lo, hi, "force (N, + up)"),
     );
@@ -738,6 +739,8 @@ fn fit(c: &Ctx) -> Section {
         width: 2,
         label: Some("F_pred (physics + network)".into()),
     });
+    p1.legend = Legend::None;
+    p2.legend = Legend::None;
     let rms = |v: &[f64]| {
         let f: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
         (f.iter().map(|x| x * x).sum::<f64>() / f.len().max(1) as f64).sqrt()

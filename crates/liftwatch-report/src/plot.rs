@@ -428,7 +428,7 @@ fn draw_panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, p: &Panel, x_de
         let (_, area_h) = area.dim_in_pixel();
         let plot_h = f64::from(area_h) - if x_desc { 110.0 } else { 84.0 };
         let legend_h = 24.0 + 27.0 * n as f64;
-        let auto = (legend_h / (plot_h - legend_h).max(1.0)).clamp(0.1, 1.2);
+        let auto = (legend_h / (plot_h - legend_h).max(1.0)).clamp(0.1, 0.5);
         y1 += (y1 - y0) * p.headroom.unwrap_or(auto);
     }
     let mut chart = ChartBuilder::on(area)

@@ -10,7 +10,9 @@ use liftwatch::model::PhysParams;
 use liftwatch::residual::Residuals;
 use liftwatch::risk::{BRAKE, FRICTION, MOTOR};
 
-use crate::plot::{colors::*, decimate, quantile, robust_range, Axis, Dash, Figure, Legend, Mark, Panel};
+use crate::plot::{
+    colors::*, decimate, quantile, robust_range, Axis, Dash, Figure, Legend, Mark, Panel,
+};
 use crate::ReportInputs;
 
 /// Pixel columns a full-width series is thinned to.
@@ -117,7 +119,7 @@ fn num(v: f64) -> String {
     let a = v.abs();
     if a == 0.0 {
         "0".into()
-    } else if a >= 1e5 || a < 1e-3 {
+    } else if !(1e-3..1e5).contains(&a) {
         format!("{v:.2e}")
     } else {
         let d = (2 - a.log10().floor() as i32).max(0) as usize;
@@ -175,7 +177,8 @@ impl<'a> Ctx<'a> {
         if n <= w {
             return (self.start, self.end);
         }
-        let good = |r: &FeatureRow| u32::from(r.s != 0 && r.voltage.is_finite() && r.lambda.is_finite());
+        let good =
+            |r: &FeatureRow| u32::from(r.s != 0 && r.voltage.is_finite() && r.lambda.is_finite());
         let first = ((from.clamp(0.0, 1.0) * n as f64) as usize).min(n - w);
         let mut sum: u32 = rows[first..first + w].iter().map(good).sum();
         let (mut best, mut best_i) = (sum, first);
@@ -260,7 +263,12 @@ fn preprocessing(c: &Ctx, a: f64, b: f64) -> Section {
     let time = Time::excerpt(c.start, a, b);
     let t: Vec<f64> = s.iter().map(|x| x.time).collect();
     let col = |f: fn(&liftwatch::Sample) -> f64| s.iter().map(f).collect::<Vec<f64>>();
-    let (speed, load, door, floor) = (col(|x| x.speed), col(|x| x.load), col(|x| x.door), col(|x| x.floor));
+    let (speed, load, door, floor) = (
+        col(|x| x.speed),
+        col(|x| x.load),
+        col(|x| x.door),
+        col(|x| x.floor),
+    );
     let rows = c.rows();
     let rt: Vec<f64> = rows.iter().map(|r| r.time).collect();
     let v: Vec<f64> = rows.iter().map(|r| r.v).collect();
@@ -334,7 +342,10 @@ fn preprocessing(c: &Ctx, a: f64, b: f64) -> Section {
     p3.y_ticks = vec![(0.0, "closed".into()), (1.0, "open".into())];
     p3.legend = Legend::None;
     let fin = in_win(&t, &floor);
-    let (flo, fhi) = (quantile(fin.iter().copied(), 0.0), quantile(fin.iter().copied(), 1.0));
+    let (flo, fhi) = (
+        quantile(fin.iter().copied(), 0.0),
+        quantile(fin.iter().copied(), 1.0),
+    );
     let (flo, fhi) = if flo.is_finite() {
         (flo - 0.5, fhi + 0.5)
     } else {
@@ -403,12 +414,23 @@ fn acceleration(c: &Ctx, a: f64, b: f64) -> Section {
         _ => (a, (a + 180.0).min(b)),
     };
     let time = Time::excerpt(c.start, ta, tb);
-    let rows: Vec<&FeatureRow> = c.rows().iter().filter(|r| r.time >= ta && r.time <= tb).collect();
-    let pts = |f: fn(&FeatureRow) -> f64| rows.iter().map(|r| (time.x(r.time), f(r))).collect::<Vec<_>>();
+    let rows: Vec<&FeatureRow> = c
+        .rows()
+        .iter()
+        .filter(|r| r.time >= ta && r.time <= tb)
+        .collect();
+    let pts = |f: fn(&FeatureRow) -> f64| {
+        rows.iter()
+            .map(|r| (time.x(r.time), f(r)))
+            .collect::<Vec<_>>()
+    };
     let all: Vec<f64> = rows.iter().flat_map(|r| [r.a_v, r.a_l, r.a]).collect();
     let (lo, hi) = robust_range(&all, 0.0, 1.0, &[0.0]);
     let mut p = Panel::new(
-        format!("Acceleration over {} trips: two paths and their fusion", trips.len()),
+        format!(
+            "Acceleration over {} trips: two paths and their fusion",
+            trips.len()
+        ),
         time.axis(ta, tb),
         Axis::new(lo, hi, "acceleration (m/s²)"),
     );
@@ -502,7 +524,10 @@ fn training(c: &Ctx) -> Section {
     let x = Axis::new(x0, x1, "iteration");
     let stage2 = h.iter().find(|p| p.stage >= 2).map(|p| p.iteration as f64);
     let loss: Vec<f64> = h.iter().map(|p| p.loss).collect();
-    let (lmin, lmax) = (quantile(loss.iter().copied(), 0.0), quantile(loss.iter().copied(), 1.0));
+    let (lmin, lmax) = (
+        quantile(loss.iter().copied(), 0.0),
+        quantile(loss.iter().copied(), 1.0),
+    );
     let y = if lmin > 0.0 && lmax / lmin > 20.0 {
         Axis::log(lmin, lmax, "loss L (log scale)")
     } else {
@@ -529,7 +554,11 @@ fn training(c: &Ctx) -> Section {
         width: 3,
         label: Some("loss".into()),
     });
-    let mut p2 = Panel::new("RMS residuals on moving samples", x.clone(), Axis::new(0.0, 1.0, ""));
+    let mut p2 = Panel::new(
+        "RMS residuals on moving samples",
+        x.clone(),
+        Axis::new(0.0, 1.0, ""),
+    );
     let ru: Vec<f64> = h.iter().map(|p| p.rms_u_v).collect();
     let rf: Vec<f64> = h.iter().map(|p| p.rms_f_n).collect();
     let (_, hu) = robust_range(&ru, 0.0, 1.0, &[0.0]);
@@ -604,23 +633,53 @@ fn parameters(c: &Ctx) -> Section {
     let final_theta = c.inp.model.parameters.to_array();
     let mut panels = Vec::new();
     let mut rows_html = Vec::new();
-    for (k, (&name, &unit)) in PhysParams::NAMES.iter().zip(PhysParams::UNITS.iter()).enumerate() {
+    for (k, (&name, &unit)) in PhysParams::NAMES
+        .iter()
+        .zip(PhysParams::UNITS.iter())
+        .enumerate()
+    {
         let value = final_theta.get(k).copied().unwrap_or(f64::NAN);
-        let vals: Vec<f64> = h.iter().map(|p| p.theta.get(k).copied().unwrap_or(f64::NAN)).collect();
+        let vals: Vec<f64> = h
+            .iter()
+            .map(|p| p.theta.get(k).copied().unwrap_or(f64::NAN))
+            .collect();
         let (lo, hi) = robust_range(&vals, 0.0, 1.0, &[value]);
         let report = fit.parameters.iter().find(|r| r.name == name);
         let se = report.and_then(|r| r.std_error).unwrap_or(f64::NAN);
         let sym = symbol(name);
         let mut p = Panel::new(
-            format!("{sym} = {}{}  ({name})", num(value), if unit == "1" { String::new() } else { format!(" {unit}") }),
+            format!(
+                "{sym} = {}{}  ({name})",
+                num(value),
+                if unit == "1" {
+                    String::new()
+                } else {
+                    format!(" {unit}")
+                }
+            ),
             Axis::new(x0, x1, "iteration"),
             Axis::new(lo, hi, format!("{sym} ({unit})")),
         );
-        p.marks.push(Mark::HLine { y: value, color: GREY, dash: Dash::Dashed, label: None });
+        p.marks.push(Mark::HLine {
+            y: value,
+            color: GREY,
+            dash: Dash::Dashed,
+            label: None,
+        });
         for sign in [-1.0, 1.0] {
-            p.marks.push(Mark::HLine { y: value + sign * se, color: GREEN, dash: Dash::Dashed, label: None });
+            p.marks.push(Mark::HLine {
+                y: value + sign * se,
+                color: GREEN,
+                dash: Dash::Dashed,
+                label: None,
+            });
         }
-        p.marks.push(Mark::Line { pts: it.iter().copied().zip(vals).collect(), color: BLUE, width: 3, label: None });
+        p.marks.push(Mark::Line {
+            pts: it.iter().copied().zip(vals).collect(),
+            color: BLUE,
+            width: 3,
+            label: None,
+        });
         p.legend = Legend::None;
         panels.push(p);
         let by = match report {
@@ -675,15 +734,25 @@ fn fit(c: &Ctx) -> Section {
     let (a, b) = c.busiest(0.75, FIT_EXCERPT_S);
     let time = Time::excerpt(c.start, a, b);
     let m = c.inp.model;
-    let rows: Vec<&FeatureRow> = c.rows().iter().filter(|r| r.time >= a && r.time <= b).collect();
+    let rows: Vec<&FeatureRow> = c
+        .rows()
+        .iter()
+        .filter(|r| r.time >= a && r.time <= b)
+        .collect();
     let preds: Vec<_> = rows
         .iter()
         .map(|r| liftwatch::residual::applicable(r).then(|| m.predict(r)))
         .collect();
     let xs: Vec<f64> = rows.iter().map(|r| time.x(r.time)).collect();
     let u_meas: Vec<f64> = rows.iter().map(|r| r.voltage).collect();
-    let u_pred: Vec<f64> = preds.iter().map(|p| p.map_or(f64::NAN, |p| p.u_pred)).collect();
-    let f_u: Vec<f64> = preds.iter().map(|p| p.map_or(f64::NAN, |p| p.f_u)).collect();
+    let u_pred: Vec<f64> = preds
+        .iter()
+        .map(|p| p.map_or(f64::NAN, |p| p.u_pred))
+        .collect();
+    let f_u: Vec<f64> = preds
+        .iter()
+        .map(|p| p.map_or(f64::NAN, |p| p.f_u))
+        .collect();
     let f_pred: Vec<f64> = rows
         .iter()
         .zip(&preds)
@@ -695,9 +764,19 @@ fn fit(c: &Ctx) -> Section {
             }
         })
         .collect();
-    let zip = |y: &[f64]| xs.iter().copied().zip(y.iter().copied()).collect::<Vec<_>>();
+    let zip = |y: &[f64]| {
+        xs.iter()
+            .copied()
+            .zip(y.iter().copied())
+            .collect::<Vec<_>>()
+    };
     let x = time.axis(a, b);
-    let (lo, hi) = robust_range(&[u_meas.clone(), u_pred.clone()].concat(), 0.002, 0.998, &[0.0]);
+    let (lo, hi) = robust_range(
+        &[u_meas.clone(), u_pred.clone()].concat(),
+        0.002,
+        0.998,
+        &[0.0],
+    );
     let mut p1 = Panel::new(
         "Motor voltage: measured U (black) and predicted U_pred (orange)",
         x.clone(),
@@ -715,7 +794,12 @@ fn fit(c: &Ctx) -> Section {
         width: 2,
         label: Some("U_pred (physics + network)".into()),
     });
-    let (lo, hi) = robust_range(&[f_u.clone(), f_pred.clone()].concat(), 0.002, 0.998, &[0.0]);
+    let (lo, hi) = robust_range(
+        &[f_u.clone(), f_pred.clone()].concat(),
+        0.002,
+        0.998,
+        &[0.0],
+    );
     let mut p2 = Panel::new(
         "Driving force: F_U implied by the measured voltage (black), F_pred predicted (blue)",
         x,
@@ -750,16 +834,59 @@ fn fit(c: &Ctx) -> Section {
     let sc = m.scales;
     let res_panel = |title: &str, sym: &str, unit: &str, r: &[f64], sigma: f64, color| {
         let (lo, hi) = robust_range(r, 0.002, 0.998, &[-3.0 * sigma, 3.0 * sigma]);
-        let mut p = Panel::new(title, time.axis(a, b), Axis::new(lo, hi, format!("{sym} ({unit})")));
-        p.marks.push(Mark::HLine { y: 0.0, color: INK, dash: Dash::Solid, label: None });
-        p.marks.push(Mark::HLine { y: 2.0 * sigma, color: GREEN, dash: Dash::Dashed, label: Some(format!("±2σ healthy ({} {unit})", num(2.0 * sigma))) });
-        p.marks.push(Mark::HLine { y: -2.0 * sigma, color: GREEN, dash: Dash::Dashed, label: None });
-        p.marks.push(Mark::Line { pts: zip(r), color, width: 2, label: Some(sym.to_string()) });
-        p.marks.push(Mark::Dots { pts: zip(r), color, radius: 2, label: None });
+        let mut p = Panel::new(
+            title,
+            time.axis(a, b),
+            Axis::new(lo, hi, format!("{sym} ({unit})")),
+        );
+        p.marks.push(Mark::HLine {
+            y: 0.0,
+            color: INK,
+            dash: Dash::Solid,
+            label: None,
+        });
+        p.marks.push(Mark::HLine {
+            y: 2.0 * sigma,
+            color: GREEN,
+            dash: Dash::Dashed,
+            label: Some(format!("±2σ healthy ({} {unit})", num(2.0 * sigma))),
+        });
+        p.marks.push(Mark::HLine {
+            y: -2.0 * sigma,
+            color: GREEN,
+            dash: Dash::Dashed,
+            label: None,
+        });
+        p.marks.push(Mark::Line {
+            pts: zip(r),
+            color,
+            width: 2,
+            label: Some(sym.to_string()),
+        });
+        p.marks.push(Mark::Dots {
+            pts: zip(r),
+            color,
+            radius: 2,
+            label: None,
+        });
         p
     };
-    let p3 = res_panel("Voltage residual r_U = U − U_pred", "r_U", "V", &ru, sc.sigma_u_v, BLUE);
-    let p4 = res_panel("Force residual r_F = F_pred − F_U", "r_F", "N", &rf, sc.sigma_f_n, ORANGE);
+    let p3 = res_panel(
+        "Voltage residual r_U = U − U_pred",
+        "r_U",
+        "V",
+        &ru,
+        sc.sigma_u_v,
+        BLUE,
+    );
+    let p4 = res_panel(
+        "Force residual r_F = F_pred − F_U",
+        "r_F",
+        "N",
+        &rf,
+        sc.sigma_f_n,
+        ORANGE,
+    );
     let text = vec![format!(
         "The busiest {} of the last quarter of the data ({} to {} after its start), where a developing fault shows most. \
          Here the voltage residual r_U = U − U_pred has an RMS of {} V and the force residual r_F = F_pred − F_U an RMS of \
@@ -850,9 +977,14 @@ fn residuals(c: &Ctx) -> Section {
             BLUE,
             (|r: &Residuals| r.r_u) as fn(&Residuals) -> f64,
         ),
-        ("Force residual", "r_F", "N", sc.sigma_f_n, ORANGE, |r: &Residuals| {
-            r.r_f
-        }),
+        (
+            "Force residual",
+            "r_F",
+            "N",
+            sc.sigma_f_n,
+            ORANGE,
+            |r: &Residuals| r.r_f,
+        ),
     ] {
         let y: Vec<f64> = rows
             .iter()
@@ -897,7 +1029,15 @@ fn residuals(c: &Ctx) -> Section {
             radius: 2,
             label: Some("mean per trip".into()),
         });
-        p.marks.push(Mark::Line { pts: running_mean(&means, RUN_TRIPS).into_iter().map(|(t, v)| (c.whole.x(t), v)).collect(), color: INK, width: 3, label: Some(format!("running mean of {RUN_TRIPS} trips")) });
+        p.marks.push(Mark::Line {
+            pts: running_mean(&means, RUN_TRIPS)
+                .into_iter()
+                .map(|(t, v)| (c.whole.x(t), v))
+                .collect(),
+            color: INK,
+            width: 3,
+            label: Some(format!("running mean of {RUN_TRIPS} trips")),
+        });
         p.legend = Legend::UpperLeft;
         panels.push(p);
         let k = (mv.len() / 10).max(1);
@@ -963,11 +1103,24 @@ fn entries(rows: &[liftwatch::monitor::MonitorRow], level: Level) -> Vec<f64> {
 /// a low advisory threshold and a high alarm threshold are both readable.
 fn risk_axis(values: &[f64], thresholds: &[f64], label: &str) -> Axis {
     let top = quantile(values.iter().copied(), 0.995).max(0.0);
-    let t_hi = thresholds.iter().copied().filter(|t| t.is_finite()).fold(0.0, f64::max);
-    let t_lo = thresholds.iter().copied().filter(|t| t.is_finite() && *t > 0.0).fold(f64::INFINITY, f64::min);
+    let t_hi = thresholds
+        .iter()
+        .copied()
+        .filter(|t| t.is_finite())
+        .fold(0.0, f64::max);
+    let t_lo = thresholds
+        .iter()
+        .copied()
+        .filter(|t| t.is_finite() && *t > 0.0)
+        .fold(f64::INFINITY, f64::min);
     let hi = (1.08 * top).max(1.2 * t_hi).max(1e-9);
     if t_lo.is_finite() && hi / t_lo > 50.0 {
-        Axis { min: t_lo / 20.0, max: 1.5 * hi, label: format!("{label}, log scale"), log: true }
+        Axis {
+            min: t_lo / 20.0,
+            max: 1.5 * hi,
+            label: format!("{label}, log scale"),
+            log: true,
+        }
     } else {
         Axis::new(0.0, hi, label)
     }
@@ -1042,20 +1195,41 @@ fn risk(c: &Ctx) -> Section {
         y2,
     );
     let th = cfg.advisory_modes;
-    let shared = th.iter().all(|t| (t - th[0]).abs() <= 1e-9 * th[0].abs().max(1e-12));
+    let shared = th
+        .iter()
+        .all(|t| (t - th[0]).abs() <= 1e-9 * th[0].abs().max(1e-12));
     if shared {
-        p2.marks.push(Mark::HLine { y: th[0], color: INK, dash: Dash::Dashed, label: Some("per-mode threshold (same for all)".into()) });
+        p2.marks.push(Mark::HLine {
+            y: th[0],
+            color: INK,
+            dash: Dash::Dashed,
+            label: Some("per-mode threshold (same for all)".into()),
+        });
     }
     for ((m, name, color), y) in modes.iter().zip(&per) {
         if !shared {
-            p2.marks.push(Mark::HLine { y: th[*m], color: *color, dash: Dash::Dashed, label: None });
+            p2.marks.push(Mark::HLine {
+                y: th[*m],
+                color: *color,
+                dash: Dash::Dashed,
+                label: None,
+            });
         }
-        p2.marks.push(Mark::Line { pts: whole_line(c, &t, y), color: *color, width: 3, label: Some(name.to_string()) });
+        p2.marks.push(Mark::Line {
+            pts: whole_line(c, &t, y),
+            color: *color,
+            width: 3,
+            label: Some(name.to_string()),
+        });
     }
     p2.headroom = Some(0.08);
     p1.headroom = Some(0.08);
     p2.legend = Legend::UpperLeft;
-    let max_r = rk.iter().copied().filter(|x| x.is_finite()).fold(0.0, f64::max);
+    let max_r = rk
+        .iter()
+        .copied()
+        .filter(|x| x.is_finite())
+        .fold(0.0, f64::max);
     let adv = entries(rows, Level::Advisory);
     let alm = entries(rows, Level::Alarm);
     let final_level = rows.last().map_or(Level::Normal, |r| r.level);
@@ -1100,7 +1274,7 @@ fn risk(c: &Ctx) -> Section {
             "Level changes ({} in all{}):<ul>{}</ul>",
             c.inp.events.len(),
             if more > 0 {
-                format!(", first 12 shown")
+                ", first 12 shown".to_string()
             } else {
                 String::new()
             },
@@ -1133,7 +1307,10 @@ fn comparison(c: &Ctx) -> Section {
     let adv = entries(c.inp.pinn, Level::Advisory);
     let alm = entries(c.inp.pinn, Level::Alarm);
     let mut p1 = Panel::new(
-        format!("Fixed-threshold baseline: {} alarm activations", activations.len()),
+        format!(
+            "Fixed-threshold baseline: {} alarm activations",
+            activations.len()
+        ),
         x.clone(),
         Axis::new(-0.1, 1.25, "baseline state"),
     );
@@ -1187,7 +1364,9 @@ fn comparison(c: &Ctx) -> Section {
         }
         p.legend = Legend::UpperLeft;
     }
-    let before = adv.first().map(|t| activations.iter().filter(|a| *a < t).count());
+    let before = adv
+        .first()
+        .map(|t| activations.iter().filter(|a| *a < t).count());
     let persistent = longest_run(thr, c.step);
     let lim = &cfg.baseline;
     let mut text =
@@ -1264,13 +1443,23 @@ fn usage(c: &Ctx) -> Section {
     let per_hour = |n: &[f64; 24]| -> Vec<(f64, f64, f64)> {
         (0..24)
             .filter(|&h| observed[h] > 0.0)
-            .map(|h| (h as f64 + 0.1, h as f64 + 0.9, n[h] / (observed[h] / 3600.0)))
+            .map(|h| {
+                (
+                    h as f64 + 0.1,
+                    h as f64 + 0.9,
+                    n[h] / (observed[h] / 3600.0),
+                )
+            })
             .collect()
     };
     let x = Axis::new(0.0, 24.0, "hour of day");
     let bar_panel = |title: &str, ylabel: &str, bars: Vec<(f64, f64, f64)>, color| {
         let top = bars.iter().map(|b| b.2).fold(0.0, f64::max);
-        let mut p = Panel::new(title, x.clone(), Axis::new(0.0, (1.12 * top).max(1e-9), ylabel));
+        let mut p = Panel::new(
+            title,
+            x.clone(),
+            Axis::new(0.0, (1.12 * top).max(1e-9), ylabel),
+        );
         p.marks.push(Mark::Bars {
             bars,
             color,
@@ -1297,7 +1486,9 @@ fn usage(c: &Ctx) -> Section {
     let top = quantile(lambdas.iter().copied(), 1.0).max(bin);
     let lo = quantile(lambdas.iter().copied(), 0.0).min(0.0);
     let (b0, b1) = ((lo / bin).floor() as i64, (top / bin).ceil() as i64);
-    let mut hist: Vec<(f64, f64, f64)> = (b0..b1).map(|k| (k as f64 * bin, (k + 1) as f64 * bin, 0.0)).collect();
+    let mut hist: Vec<(f64, f64, f64)> = (b0..b1)
+        .map(|k| (k as f64 * bin, (k + 1) as f64 * bin, 0.0))
+        .collect();
     for v in &lambdas {
         let k = ((v / bin).floor() as i64 - b0).clamp(0, hist.len() as i64 - 1) as usize;
         if let Some(h) = hist.get_mut(k) {
@@ -1307,27 +1498,50 @@ fn usage(c: &Ctx) -> Section {
     let hmax = hist.iter().map(|h| h.2).fold(0.0, f64::max);
     let mut p4 = Panel::new(
         "Load per trip (histogram, 5 % bins)",
-        Axis::new(b0 as f64 * bin, b1 as f64 * bin, "static load λ (% of rated load)"),
+        Axis::new(
+            b0 as f64 * bin,
+            b1 as f64 * bin,
+            "static load λ (% of rated load)",
+        ),
         Axis::new(0.0, (1.12 * hmax).max(1.0), "trips"),
     );
     p4.marks.push(Mark::Bars {
-        bars: hist.iter().map(|&(a, b, n)| (a + 0.4, b - 0.4, n)).collect(),
+        bars: hist
+            .iter()
+            .map(|&(a, b, n)| (a + 0.4, b - 0.4, n))
+            .collect(),
         color: PURPLE,
         label: None,
     });
     p4.legend = Legend::None;
     let panels = vec![
-        bar_panel("Trips started per hour, by hour of day", "trips per hour", tb.clone(), BLUE),
-        bar_panel("Door cycles per hour, by hour of day", "door openings per hour", db, GREEN),
-        bar_panel("Time moving, by hour of day", "moving (% of the hour)", mb, ORANGE),
+        bar_panel(
+            "Trips started per hour, by hour of day",
+            "trips per hour",
+            tb.clone(),
+            BLUE,
+        ),
+        bar_panel(
+            "Door cycles per hour, by hour of day",
+            "door openings per hour",
+            db,
+            GREEN,
+        ),
+        bar_panel(
+            "Time moving, by hour of day",
+            "moving (% of the hour)",
+            mb,
+            ORANGE,
+        ),
         p4,
     ];
     let days = observed.iter().sum::<f64>() / 86400.0;
     let n_trips = c.inp.features.trips.len();
-    let busiest = tb
-        .iter()
-        .copied()
-        .fold((f64::NAN, 0.0), |acc, b| if b.2 > acc.1 { (b.0, b.2) } else { acc });
+    let busiest =
+        tb.iter().copied().fold(
+            (f64::NAN, 0.0),
+            |acc, b| if b.2 > acc.1 { (b.0, b.2) } else { acc },
+        );
     let total_moving: f64 = moving.iter().sum();
     let total_obs: f64 = observed.iter().sum();
     let text = vec![format!(

@@ -37,7 +37,10 @@ pub(crate) fn page(inp: &ReportInputs, sections: &[Section]) -> String {
         "<title>liftwatch report: {}</title>\n<style>{STYLE}</style>\n</head>\n<body>\n",
         escape(inp.source)
     ));
-    h.push_str(&format!("<h1>liftwatch report: {}</h1>\n", escape(inp.source)));
+    h.push_str(&format!(
+        "<h1>liftwatch report: {}</h1>\n",
+        escape(inp.source)
+    ));
     h.push_str(&format!(
         "<p class=\"meta\">Elevator: rated load {} kg, rated speed {} m/s, {} floors. Model format version {}, \
          fitted on {} moving samples. Each figure is also saved as PNG beside its SVG.</p>\n",
@@ -45,7 +48,11 @@ pub(crate) fn page(inp: &ReportInputs, sections: &[Section]) -> String {
     ));
     h.push_str("<nav>");
     for s in sections {
-        h.push_str(&format!("<a href=\"#{}\">{}</a> ", s.figure.name, escape(&s.heading)));
+        h.push_str(&format!(
+            "<a href=\"#{}\">{}</a> ",
+            s.figure.name,
+            escape(&s.heading)
+        ));
     }
     h.push_str("</nav>\n");
     for s in sections {

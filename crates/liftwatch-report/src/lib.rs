@@ -97,7 +97,11 @@ pub const FIGURES: [&str; 9] = [
 ];
 
 /// Runs the streaming monitor of `method` over the whole series: one row per sample.
-pub fn monitor_rows(model: &FittedModel, series: &AlignedSeries, method: Method) -> Vec<MonitorRow> {
+pub fn monitor_rows(
+    model: &FittedModel,
+    series: &AlignedSeries,
+    method: Method,
+) -> Vec<MonitorRow> {
     let mut m = Monitor::new(model, method);
     let mut rows: Vec<MonitorRow> = series.samples.iter().filter_map(|s| m.push(s)).collect();
     rows.extend(m.finish());
@@ -148,7 +152,8 @@ mod tests {
 
     impl TempDir {
         fn new(tag: &str) -> TempDir {
-            let p = std::env::temp_dir().join(format!("liftwatch-report-{tag}-{}", std::process::id()));
+            let p =
+                std::env::temp_dir().join(format!("liftwatch-report-{tag}-{}", std::process::id()));
             let _ = std::fs::remove_dir_all(&p);
             TempDir(p)
         }
@@ -163,10 +168,16 @@ mod tests {
     #[test]
     fn report_writes_every_figure_and_an_index_that_shows_them() {
         let elevator = Elevator::new(1000.0, 1.6, 16);
-        let sim = liftwatch::sim::simulate(&SimConfig::new(elevator.clone(), 0.4, 11)).expect("valid simulator settings");
+        let sim = liftwatch::sim::simulate(&SimConfig::new(elevator.clone(), 0.4, 11))
+            .expect("valid simulator settings");
         let series = sim.aligned();
-        let cfg = TrainConfig { epochs: 60, ..TrainConfig::default() };
-        let model = liftwatch::model::fit(&series, &elevator, &cfg, &mut |_| {}).expect("0.4 simulated days fit").model;
+        let cfg = TrainConfig {
+            epochs: 60,
+            ..TrainConfig::default()
+        };
+        let model = liftwatch::model::fit(&series, &elevator, &cfg, &mut |_| {})
+            .expect("0.4 simulated days fit")
+            .model;
         let features = liftwatch::features::extract(&series, &model.features);
         let pinn = monitor_rows(&model, &series, Method::Pinn);
         let threshold = monitor_rows(&model, &series, Method::Threshold);
@@ -185,7 +196,10 @@ mod tests {
         let written = write_report(&dir.0, &inputs).expect("report is written");
         assert_eq!(written.len(), 2 * FIGURES.len() + 1);
         let index = std::fs::read_to_string(dir.0.join("index.html")).expect("index.html exists");
-        assert!(index.contains("sim &lt;seed 11&gt;.csv"), "the source name is escaped");
+        assert!(
+            index.contains("sim &lt;seed 11&gt;.csv"),
+            "the source name is escaped"
+        );
         for name in FIGURES {
             for ext in ["svg", "png"] {
                 let path = dir.0.join(format!("{name}.{ext}"));
@@ -194,14 +208,27 @@ mod tests {
             }
             let png = std::fs::read(dir.0.join(format!("{name}.png"))).expect("png is readable");
             assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n", "{name}.png is a PNG");
-            let svg = std::fs::read_to_string(dir.0.join(format!("{name}.svg"))).expect("svg is text");
-            assert!(svg.trim_start().starts_with("<svg"), "{name}.svg starts with <svg");
+            let svg =
+                std::fs::read_to_string(dir.0.join(format!("{name}.svg"))).expect("svg is text");
+            assert!(
+                svg.trim_start().starts_with("<svg"),
+                "{name}.svg starts with <svg"
+            );
             assert!(svg.trim_end().ends_with("</svg>"), "{name}.svg is complete");
-            assert_eq!(svg.matches("<text").count(), svg.matches("</text>").count(), "{name}.svg text elements balance");
-            assert!(index.contains(&format!("<img src=\"{name}.svg\"")), "index.html shows {name}.svg");
+            assert_eq!(
+                svg.matches("<text").count(),
+                svg.matches("</text>").count(),
+                "{name}.svg text elements balance"
+            );
+            assert!(
+                index.contains(&format!("<img src=\"{name}.svg\"")),
+                "index.html shows {name}.svg"
+            );
         }
         // The axis descriptions are in the SVGs as text.
-        let text = |name: &str| std::fs::read_to_string(dir.0.join(format!("{name}.svg"))).expect("svg is text");
+        let text = |name: &str| {
+            std::fs::read_to_string(dir.0.join(format!("{name}.svg"))).expect("svg is text")
+        };
         for (name, label) in [
             ("preprocessing", "velocity (m/s)"),
             ("preprocessing", "load (% of rated)"),
@@ -217,16 +244,28 @@ mod tests {
         ] {
             let svg = text(name);
             let escaped = label.replace('&', "&amp;");
-            assert!(svg.contains(label) || svg.contains(&escaped), "{name}.svg lacks the axis label `{label}`");
+            assert!(
+                svg.contains(label) || svg.contains(&escaped),
+                "{name}.svg lacks the axis label `{label}`"
+            );
         }
         // Numbers come from the data: the trip count of the usage text is the features' count.
         assert!(index.contains(&format!("{} complete trips", features.trips.len())));
         assert!(!index.contains("NaN") && !index.contains("TODO"));
         // An empty series is refused before anything is written.
         let empty = AlignedSeries::default();
-        let none = ReportInputs { series: &empty, pinn: &[], threshold: &[], events: &[], ..inputs };
+        let none = ReportInputs {
+            series: &empty,
+            pinn: &[],
+            threshold: &[],
+            events: &[],
+            ..inputs
+        };
         let missing = dir.0.join("empty");
-        assert!(matches!(write_report(&missing, &none), Err(Error::NoData(_))));
+        assert!(matches!(
+            write_report(&missing, &none),
+            Err(Error::NoData(_))
+        ));
         assert!(!missing.exists());
     }
 }

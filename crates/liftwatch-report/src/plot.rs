@@ -56,7 +56,12 @@ pub mod colors {
 pub fn register_font() -> Result<(), Error> {
     static DONE: OnceLock<bool> = OnceLock::new();
     let ok = *DONE.get_or_init(|| {
-        plotters::style::register_font(FONT, FontStyle::Normal, include_bytes!("../assets/DejaVuSans.ttf")).is_ok()
+        plotters::style::register_font(
+            FONT,
+            FontStyle::Normal,
+            include_bytes!("../assets/DejaVuSans.ttf"),
+        )
+        .is_ok()
     });
     if ok {
         Ok(())
@@ -112,7 +117,9 @@ impl Axis {
         }
         if self.log {
             // At or below the range (zero included) is drawn on the lower edge.
-            v.max(self.min).log10().clamp(self.min.log10(), self.max.log10())
+            v.max(self.min)
+                .log10()
+                .clamp(self.min.log10(), self.max.log10())
         } else {
             v.clamp(self.min, self.max)
         }
@@ -301,7 +308,11 @@ fn font(size: f64) -> TextStyle<'static> {
 /// leading digit, trailing zeros dropped: `0.25`, `0.5`, `1500`).
 pub fn fmt_tick(v: f64, span: f64) -> String {
     let step = span.abs() / 6.0;
-    let decimals = if step >= 10.0 || step <= 0.0 { 0 } else { ((-step.log10()).ceil() + 1.0).clamp(0.0, 7.0) as usize };
+    let decimals = if step >= 10.0 || step <= 0.0 {
+        0
+    } else {
+        ((-step.log10()).ceil() + 1.0).clamp(0.0, 7.0) as usize
+    };
     let a = v.abs();
     if a != 0.0 && (a >= 1e6 || (decimals > 5 && a < 1e-4)) {
         return format!("{v:.1e}");
@@ -326,7 +337,10 @@ fn fmt_decade(e: f64) -> String {
     }
 }
 
-fn draw_figure<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, fig: &Figure) -> Result<(), String> {
+fn draw_figure<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    fig: &Figure,
+) -> Result<(), String> {
     root.fill(&WHITE).map_err(|e| e.to_string())?;
     let cells = root.split_evenly(fig.grid);
     let (rows, cols) = fig.grid;
@@ -386,7 +400,9 @@ fn split_sharp_turns(seg: Vec<(f64, f64)>, scale: (f64, f64)) -> Vec<Vec<(f64, f
 fn log_ticks(a: f64, b: f64) -> Vec<(f64, String)> {
     let (la, lb) = (a.log10(), b.log10());
     if lb - la >= 1.0 {
-        let mut v: Vec<(f64, String)> = (la.ceil() as i32..=lb.floor() as i32).map(|k| (f64::from(k), fmt_decade(f64::from(k)))).collect();
+        let mut v: Vec<(f64, String)> = (la.ceil() as i32..=lb.floor() as i32)
+            .map(|k| (f64::from(k), fmt_decade(f64::from(k))))
+            .collect();
         if v.len() <= 2 {
             for k in la.floor() as i32..=lb.ceil() as i32 {
                 for m in [2.0, 5.0] {
@@ -401,7 +417,11 @@ fn log_ticks(a: f64, b: f64) -> Vec<(f64, String)> {
     } else {
         let raw = (b - a) / 7.0;
         let mag = 10f64.powf(raw.log10().floor());
-        let step = [1.0, 2.0, 2.5, 5.0, 10.0].iter().map(|m| m * mag).find(|s| *s >= raw).unwrap_or(10.0 * mag);
+        let step = [1.0, 2.0, 2.5, 5.0, 10.0]
+            .iter()
+            .map(|m| m * mag)
+            .find(|s| *s >= raw)
+            .unwrap_or(10.0 * mag);
         let mut v = Vec::new();
         let mut x = (a / step).ceil() * step;
         while x <= b && v.len() < 12 {
@@ -412,17 +432,38 @@ fn log_ticks(a: f64, b: f64) -> Vec<(f64, String)> {
     }
 }
 
-fn draw_panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, p: &Panel, x_desc: bool) -> Result<(), String> {
+fn draw_panel<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    p: &Panel,
+    x_desc: bool,
+) -> Result<(), String> {
     let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
     let (x0, x1) = p.x.range();
     let (y0, mut y1) = p.y.range();
     let labelled = p.marks.iter().any(|m| match m {
-        Mark::Line { label, .. } | Mark::Dots { label, .. } | Mark::HLine { label, .. } | Mark::VLine { label, .. } | Mark::Bars { label, .. } => label.is_some(),
+        Mark::Line { label, .. }
+        | Mark::Dots { label, .. }
+        | Mark::HLine { label, .. }
+        | Mark::VLine { label, .. }
+        | Mark::Bars { label, .. } => label.is_some(),
         Mark::Band { .. } => false,
     });
     if labelled && matches!(p.legend, Legend::UpperLeft | Legend::UpperRight) {
         // Headroom for the legend box, so that it does not hide the data.
-        let n = p.marks.iter().filter(|m| matches!(m, Mark::Line { label: Some(_), .. } | Mark::Dots { label: Some(_), .. } | Mark::HLine { label: Some(_), .. } | Mark::VLine { label: Some(_), .. } | Mark::Bars { label: Some(_), .. })).count();
+        let n = p
+            .marks
+            .iter()
+            .filter(|m| {
+                matches!(
+                    m,
+                    Mark::Line { label: Some(_), .. }
+                        | Mark::Dots { label: Some(_), .. }
+                        | Mark::HLine { label: Some(_), .. }
+                        | Mark::VLine { label: Some(_), .. }
+                        | Mark::Bars { label: Some(_), .. }
+                )
+            })
+            .count();
         // The legend box is about 16 px plus 27 px per entry; the plot about the area less
         // the caption and the x labels.
         let (_, area_h) = area.dim_in_pixel();
@@ -442,12 +483,18 @@ fn draw_panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, p: &Panel, x_de
         .build_cartesian_2d(x0..x1, y0..y1)
         .map_err(e)?;
     let (pw, ph) = chart.plotting_area().dim_in_pixel();
-    let scale = (f64::from(pw) / (x1 - x0).max(1e-300), f64::from(ph) / (y1 - y0).max(1e-300));
+    let scale = (
+        f64::from(pw) / (x1 - x0).max(1e-300),
+        f64::from(ph) / (y1 - y0).max(1e-300),
+    );
     let (x_span, y_span) = (x1 - x0, p.y.range().1 - y0);
     let xf = |v: &f64| fmt_tick(*v, x_span);
     // Own ticks (drawn below) for custom labels and log axes; plotters' for the rest.
     let own: Vec<(f64, String)> = if !p.y_ticks.is_empty() {
-        p.y_ticks.iter().map(|(v, s)| (p.y.map(*v), s.clone())).collect()
+        p.y_ticks
+            .iter()
+            .map(|(v, s)| (p.y.map(*v), s.clone()))
+            .collect()
     } else if p.y.log {
         log_ticks(p.y.min, 10f64.powf(y1))
     } else {
@@ -475,12 +522,21 @@ fn draw_panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, p: &Panel, x_de
         plotters::style::text_anchor::VPos::Center,
     ));
     for (v, text) in own.iter().filter(|(v, _)| *v >= y0 && *v <= y1) {
-        chart.draw_series(LineSeries::new(vec![(x0, *v), (x1, *v)], RGBColor(215, 215, 215))).map_err(e)?;
         chart
-            .draw_series(std::iter::once(EmptyElement::at((x0, *v)) + Text::new(text.clone(), (-10, 0), tick_style.clone())))
+            .draw_series(LineSeries::new(
+                vec![(x0, *v), (x1, *v)],
+                RGBColor(215, 215, 215),
+            ))
             .map_err(e)?;
         chart
-            .draw_series(std::iter::once(EmptyElement::at((x0, *v)) + PathElement::new(vec![(-6, 0), (0, 0)], BLACK)))
+            .draw_series(std::iter::once(
+                EmptyElement::at((x0, *v)) + Text::new(text.clone(), (-10, 0), tick_style.clone()),
+            ))
+            .map_err(e)?;
+        chart
+            .draw_series(std::iter::once(
+                EmptyElement::at((x0, *v)) + PathElement::new(vec![(-6, 0), (0, 0)], BLACK),
+            ))
             .map_err(e)?;
     }
     let mut any_label = false;
@@ -503,22 +559,36 @@ fn draw_panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, p: &Panel, x_de
                 width,
                 label,
             } => {
-                let mapped: Vec<(f64, f64)> = pts.iter().map(|(x, y)| (p.x.map(*x), p.y.map(*y))).collect();
+                let mapped: Vec<(f64, f64)> = pts
+                    .iter()
+                    .map(|(x, y)| (p.x.map(*x), p.y.map(*y)))
+                    .collect();
                 let style = color.stroke_width(*width);
                 let mut first = true;
-                let pieces = segments(&mapped).into_iter().flat_map(|s| if *width > 1 { split_sharp_turns(s, scale) } else { vec![s] });
+                let pieces = segments(&mapped).into_iter().flat_map(|s| {
+                    if *width > 1 {
+                        split_sharp_turns(s, scale)
+                    } else {
+                        vec![s]
+                    }
+                });
                 for seg in pieces {
                     if seg.len() == 1 {
                         chart
-                            .draw_series(std::iter::once(Circle::new(seg[0], 1 + *width / 2, color.filled())))
+                            .draw_series(std::iter::once(Circle::new(
+                                seg[0],
+                                1 + *width / 2,
+                                color.filled(),
+                            )))
                             .map_err(e)?;
                         continue;
                     }
                     let ann = chart.draw_series(LineSeries::new(seg, style)).map_err(e)?;
                     if let (Some(l), true) = (label, first) {
                         let c = *color;
-                        ann.label(l.as_str())
-                            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 24, y)], c.stroke_width(3)));
+                        ann.label(l.as_str()).legend(move |(x, y)| {
+                            PathElement::new(vec![(x, y), (x + 24, y)], c.stroke_width(3))
+                        });
                         any_label = true;
                         first = false;
                     }
@@ -530,7 +600,9 @@ fn draw_panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, p: &Panel, x_de
                         .draw_series(std::iter::empty::<PathElement<(f64, f64)>>())
                         .map_err(e)?
                         .label(l.as_str())
-                        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 24, y)], c.stroke_width(3)));
+                        .legend(move |(x, y)| {
+                            PathElement::new(vec![(x, y), (x + 24, y)], c.stroke_width(3))
+                        });
                     any_label = true;
                 }
             }
@@ -556,7 +628,12 @@ fn draw_panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, p: &Panel, x_de
                     any_label = true;
                 }
             }
-            Mark::HLine { y, color, dash, label } => {
+            Mark::HLine {
+                y,
+                color,
+                dash,
+                label,
+            } => {
                 let yy = p.y.map(*y);
                 if !yy.is_finite() || *y > p.y.max || *y < p.y.min {
                     continue;
@@ -568,12 +645,18 @@ fn draw_panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, p: &Panel, x_de
                         .draw_series(LineSeries::new(vec![(x0, yy), (x1, yy)], style))
                         .map_err(e)?,
                     Dash::Dashed => chart
-                        .draw_series(DashedLineSeries::new(vec![(x0, yy), (x1, yy)], 10, 6, style))
+                        .draw_series(DashedLineSeries::new(
+                            vec![(x0, yy), (x1, yy)],
+                            10,
+                            6,
+                            style,
+                        ))
                         .map_err(e)?,
                 };
                 if let Some(l) = label {
-                    ann.label(l.as_str())
-                        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 24, y)], c.stroke_width(2)));
+                    ann.label(l.as_str()).legend(move |(x, y)| {
+                        PathElement::new(vec![(x, y), (x + 24, y)], c.stroke_width(2))
+                    });
                     any_label = true;
                 }
             }
@@ -584,7 +667,12 @@ fn draw_panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, p: &Panel, x_de
                 }
                 let c = *color;
                 let ann = chart
-                    .draw_series(DashedLineSeries::new(vec![(xx, y0), (xx, y1)], 8, 5, c.stroke_width(2)))
+                    .draw_series(DashedLineSeries::new(
+                        vec![(xx, y0), (xx, y1)],
+                        8,
+                        5,
+                        c.stroke_width(2),
+                    ))
                     .map_err(e)?;
                 if let Some(l) = label {
                     ann.label(l.as_str()).legend(move |(x, y)| {
@@ -604,8 +692,9 @@ fn draw_panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, p: &Panel, x_de
                     }))
                     .map_err(e)?;
                 if let Some(l) = label {
-                    ann.label(l.as_str())
-                        .legend(move |(x, y)| Rectangle::new([(x + 4, y - 6), (x + 20, y + 6)], c.filled()));
+                    ann.label(l.as_str()).legend(move |(x, y)| {
+                        Rectangle::new([(x + 4, y - 6), (x + 20, y + 6)], c.filled())
+                    });
                     any_label = true;
                 }
             }
@@ -633,23 +722,33 @@ fn draw_panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, p: &Panel, x_de
     Ok(())
 }
 
+/// A pixel column in [`decimate`]: index, (t, y) of the minimum, (t, y) of the maximum.
+type Column = (i64, (f64, f64), (f64, f64));
+
 /// Thins `(t, y)` to at most about two points per pixel column of `columns` over `[x0, x1]`:
 /// the minimum and the maximum of each column, in their time order, so a one-sample spike
 /// survives. A non-finite `y` or a time step longer than `max_step` breaks the line (a NaN
 /// point is emitted). Points outside `[x0, x1]` are dropped.
-pub fn decimate(t: &[f64], y: &[f64], x0: f64, x1: f64, columns: usize, max_step: f64) -> Vec<(f64, f64)> {
+pub fn decimate(
+    t: &[f64],
+    y: &[f64],
+    x0: f64,
+    x1: f64,
+    columns: usize,
+    max_step: f64,
+) -> Vec<(f64, f64)> {
     let columns = columns.max(1);
     let width = (x1 - x0) / columns as f64;
     let mut out: Vec<(f64, f64)> = Vec::new();
-    // Current column: (index, (t, y) of min, (t, y) of max).
-    let mut col: Option<(i64, (f64, f64), (f64, f64))> = None;
+    // Current column: its index, (t, y) of its minimum and of its maximum.
+    let mut col: Option<Column> = None;
     let mut last_t = f64::NAN;
     let brk = |out: &mut Vec<(f64, f64)>| {
         if out.last().is_some_and(|p| p.1.is_finite()) {
             out.push((f64::NAN, f64::NAN));
         }
     };
-    let flush = |out: &mut Vec<(f64, f64)>, c: &mut Option<(i64, (f64, f64), (f64, f64))>| {
+    let flush = |out: &mut Vec<(f64, f64)>, c: &mut Option<Column>| {
         if let Some((_, lo, hi)) = c.take() {
             if lo.0 <= hi.0 {
                 out.push(lo);

@@ -15,7 +15,9 @@ use liftwatch_report::{monitor_rows, write_report, ReportInputs};
 
 /// Flags of `liftwatch report`.
 #[derive(Debug, clap::Args)]
-#[command(about = "Write figures (SVG and PNG) and an HTML report about telemetry, read with a fitted model")]
+#[command(
+    about = "Write figures (SVG and PNG) and an HTML report about telemetry, read with a fitted model"
+)]
 pub struct Args {
     /// Model file written by `fit`.
     #[arg(long)]
@@ -40,7 +42,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             ingest.bad_rows
         );
     }
-    eprintln!("report: {} samples from {}", series.len(), args.input.display());
+    eprintln!(
+        "report: {} samples from {}",
+        series.len(),
+        args.input.display()
+    );
     let features = liftwatch::features::extract(&series, &model.features);
     let pinn = monitor_rows(&model, &series, Method::Pinn);
     let threshold = monitor_rows(&model, &series, Method::Threshold);
@@ -60,7 +66,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     let written = write_report(&args.out, &inputs)
         .with_context(|| format!("cannot write the report to {}", args.out.display()))?;
-    let index = written.last().cloned().unwrap_or_else(|| args.out.join("index.html"));
+    let index = written
+        .last()
+        .cloned()
+        .unwrap_or_else(|| args.out.join("index.html"));
     println!("{}", index.display());
     Ok(())
 }

@@ -488,17 +488,24 @@ fn acceleration(c: &Ctx, a: f64, b: f64) -> Section {
         (moving.iter().map(|r| f(r).powi(2)).sum::<f64>() / moving.len().max(1) as f64).sqrt()
     };
     let cfg = &c.inp.model.features;
+    let agreement = if moving.is_empty() {
+        "The data hold no moving sample with both paths.".to_string()
+    } else {
+        format!(
+            "Over all {} moving samples of the data the two paths differ by {} m/s² RMS, against an RMS acceleration \
+             of {} m/s².",
+            moving.len(),
+            num(rms(&|r| r.a_v - r.a_l)),
+            num(rms(&|r| r.a)),
+        )
+    };
     let text = vec![format!(
         "At 1 Hz the speed difference a_v is fast but noisy; the load-cell path a_L reads the inertial swing of the load \
          cell while the door is closed (platform ratio k fitted on the healthy history: {}). The fused acceleration weighs \
-         a_v by β = {} while starting and braking and by β = {} while cruising (at half load). Over all {} moving samples \
-         of the data the two paths differ by {} m/s² RMS, against an RMS acceleration of {} m/s².",
+         a_v by β = {} while starting and braking and by β = {} while cruising (at half load). {agreement}",
         num(cfg.load_cell_platform_ratio),
         num(cfg.beta_transient),
         num(cfg.beta_cruise),
-        moving.len(),
-        num(rms(&|r| r.a_v - r.a_l)),
-        num(rms(&|r| r.a)),
     )];
     Section {
         figure: Figure {
@@ -827,7 +834,10 @@ fn fit(c: &Ctx) -> Section {
     p2.legend = Legend::None;
     let rms = |v: &[f64]| {
         let f: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
-        (f.iter().map(|x| x * x).sum::<f64>() / f.len().max(1) as f64).sqrt()
+        if f.is_empty() {
+            return f64::NAN;
+        }
+        (f.iter().map(|x| x * x).sum::<f64>() / f.len() as f64).sqrt()
     };
     let ru: Vec<f64> = u_meas.iter().zip(&u_pred).map(|(m, p)| m - p).collect();
     let rf: Vec<f64> = f_pred.iter().zip(&f_u).map(|(p, u)| p - u).collect();
@@ -888,7 +898,7 @@ fn fit(c: &Ctx) -> Section {
         ORANGE,
     );
     let text = vec![format!(
-        "The busiest {} of the last quarter of the data ({} to {} after its start), where a developing fault shows most. \
+        "The busiest {} near the end of the data ({} to {} after its start), where a developing fault shows most. \
          Here the voltage residual r_U = U − U_pred has an RMS of {} V and the force residual r_F = F_pred − F_U an RMS of \
          {} N, against {} V and {} N on the healthy training data. The voltage is predicted at standstill too; the force \
          only while moving (F_U divides by the direction).",
@@ -1043,7 +1053,9 @@ fn residuals(c: &Ctx) -> Section {
         let k = (mv.len() / 10).max(1);
         let first = mv.iter().take(k).sum::<f64>() / k.min(mv.len()).max(1) as f64;
         let last = mv.iter().rev().take(k).sum::<f64>() / k.min(mv.len()).max(1) as f64;
-        drift.push((sym, unit, first, last, sigma));
+        if !mv.is_empty() {
+            drift.push((sym, unit, first, last, sigma));
+        }
     }
     let text = vec![format!(
         "Residuals of every moving sample over the whole input (thinned to the minimum and maximum per pixel column, so \
@@ -1059,6 +1071,7 @@ fn residuals(c: &Ctx) -> Section {
             ))
             .collect::<Vec<_>>()
             .join(" ")
+            + if drift.is_empty() { "No trip has enough moving samples to average." } else { "" }
     )];
     Section {
         figure: Figure {
@@ -1544,7 +1557,15 @@ fn usage(c: &Ctx) -> Section {
         );
     let total_moving: f64 = moving.iter().sum();
     let total_obs: f64 = observed.iter().sum();
-    let text = vec![format!(
+    let mut text = Vec::new();
+    if n_trips == 0 {
+        text.push(format!(
+            "No complete trip in {} of data with speed; the car moved {:.1} % of the time.",
+            span_text(total_obs),
+            100.0 * total_moving / total_obs.max(1e-9)
+        ));
+    }
+    text.push(format!(
         "{n_trips} complete trips in {} of data with speed ({} per day), {} door openings per day; the car moved {:.1} % of the \
          time. The busiest hour of day starts at {:02}:00 with {} trips per hour on average. Trip loads (static λ, held from \
          door close): median {} %, 90th percentile {} % of the rated load. Hours of day are the time stamps modulo 24 h.",
@@ -1556,7 +1577,10 @@ fn usage(c: &Ctx) -> Section {
         num(busiest.1),
         num(quantile(lambdas.iter().copied(), 0.5)),
         num(quantile(lambdas.iter().copied(), 0.9)),
-    )];
+    ));
+    if n_trips == 0 {
+        text.truncate(1);
+    }
     Section {
         figure: Figure {
             name: "usage".into(),

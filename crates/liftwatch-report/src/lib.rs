@@ -252,6 +252,31 @@ mod tests {
         // Numbers come from the data: the trip count of the usage text is the features' count.
         assert!(index.contains(&format!("{} complete trips", features.trips.len())));
         assert!(!index.contains("NaN") && !index.contains("TODO"));
+        // A short excerpt with a gap and no complete trip still gives a full report.
+        let mut short = AlignedSeries {
+            step_s: 1.0,
+            samples: series.samples[..400].to_vec(),
+        };
+        for s in &mut short.samples[100..150] {
+            *s = liftwatch::Sample::missing(s.time);
+        }
+        let f_short = liftwatch::features::extract(&short, &model.features);
+        let p_short = monitor_rows(&model, &short, Method::Pinn);
+        let t_short = monitor_rows(&model, &short, Method::Threshold);
+        let small = ReportInputs {
+            series: &short,
+            features: &f_short,
+            pinn: &p_short,
+            threshold: &t_short,
+            events: &[],
+            ..inputs
+        };
+        let dir_short = TempDir::new("short");
+        let written = write_report(&dir_short.0, &small).expect("a short report is written");
+        assert_eq!(written.len(), 2 * FIGURES.len() + 1);
+        let index =
+            std::fs::read_to_string(dir_short.0.join("index.html")).expect("index.html exists");
+        assert!(!index.contains("NaN") && !index.contains("inf"), "{index}");
         // An empty series is refused before anything is written.
         let empty = AlignedSeries::default();
         let none = ReportInputs {

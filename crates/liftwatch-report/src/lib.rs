@@ -24,6 +24,25 @@
 //! # Ok(()) }
 //! ```
 //!
+//! The figures, in report order (file stems of [`FIGURES`]):
+//!
+//! | stem | what it shows |
+//! |------|---------------|
+//! | `preprocessing` | aligned speed and signed v, load reading and held λ, door, floor over the busiest 20 min |
+//! | `acceleration`  | a_v, a_L and the fused a over three trips of that excerpt |
+//! | `training`      | loss (log scale), RMS r_U and RMS r_F against the iteration, stage 2 marked |
+//! | `parameters`    | one small panel per physical parameter θ_k, final value and ± one standard error |
+//! | `fit`           | U vs U_pred, F_U vs F_pred and both residuals over a busy 6 min near the end |
+//! | `residuals`     | r_U and r_F of every moving sample over the whole input, trip means, running mean |
+//! | `risk`          | combined R with advisory/alarm thresholds and events; per-mode R_m |
+//! | `comparison`    | fixed-threshold baseline alarm state (activations counted) over the liftwatch risk |
+//! | `usage`         | trips, door cycles and time moving by hour of day; histogram of trip λ |
+//!
+//! Design choices: time axes in s, min, h or days by span; whole-span series thinned to the
+//! minimum and maximum of each pixel column; missing values and time gaps break lines; ranges from
+//! quantiles so one outlier cannot squash a panel; the risk axis turns logarithmic when the
+//! advisory and alarm thresholds are more than a factor 50 apart.
+//!
 //! Plotting lives in this crate so that the library stays free of drawing dependencies.
 
 mod figures;

@@ -9,8 +9,8 @@
 //!     x_motor = φ(s)·Kd·s·F_pred                coefficient = relative change of Kd
 //!     x_brake = φ(s)·Kd·F_c·1[s = −1 or decel]  coefficient = brake drag / F_c
 //!     x_fric  = φ(s)·Kd·(F_c + c·|v|)           coefficient = relative change of friction
-//!   z_m = (θ̂_m − θ0_m) / max(σ_m, SE_m),  z⁺_m = max(0, z_m)
-//!                                   σ_m: healthy spread of θ̂_m in the fit, SE_m: standard error
+//!   z_m = (θ̂_m − θ0_m) / max(σ_m, k_m·SE_m),  z⁺_m = max(0, z_m)
+//!                    σ_m: healthy spread of θ̂_m in the fit, SE_m: standard error, k_m ≤ 1 its scale
 //!   c_k = ln(1 + e_trip),  c_m,k = ln(1 + z⁺_m)              compressed evidence per lens
 //!   x = max(0, c − τ) per lens                               τ = μ_c + 3·σ_c of the healthy fit
 //!   per mode m: x_m;  combined: x_k = max(x_trip, x_motor, x_brake, x_fric)
@@ -207,6 +207,11 @@ pub struct RiskConfig {
     /// Healthy standard deviation of the re-identified coefficients after warm-up: estimation
     /// noise and healthy wander (the thermal drift of the winding resistance shows here).
     pub drift_sd: [f64; N_MODES],
+    /// k: the healthy spread of the coefficients over their mean nominal standard error,
+    /// at most 1. The nominal errors count each trip as one observation, which overstates
+    /// them when the residuals within a trip are not fully correlated; k scales them to what
+    /// the healthy data show, while they still grow where the data are thinner than in the fit.
+    pub se_scale: [f64; N_MODES],
     /// Prior information of the re-identification (packed upper triangle of XᵀX, healthy).
     pub prior_info: [f64; 6],
     /// Healthy variance of the per-trip regression residual (V²).
@@ -245,6 +250,7 @@ impl Default for RiskConfig {
             trip_spread_f: [0.05, 1.0],
             healthy_coef: [0.0; N_MODES],
             drift_sd: [0.02, 0.05, 0.05],
+            se_scale: [1.0; N_MODES],
             prior_info: [0.0; 6],
             prior_s2: 1.0,
             // μ + 3σ of c = ln(1 + |z|) for a unit-normal z.
@@ -362,8 +368,8 @@ impl RiskConfig {
     ///
     /// Method: (1) the trip spread var(mean e) = a + b/n is fitted by least squares on the
     /// squared trip means; (2) the re-identification runs over the healthy trips, giving θ0
-    /// (mean of the estimates after warm-up) and their healthy spread σ (estimation noise plus
-    /// the thermal drift of the winding resistance);
+    /// (mean of the estimates after warm-up), their healthy spread σ (estimation noise plus
+    /// the thermal drift of the winding resistance) and k = min(1, σ/rms SE);
     /// (3) τ = μ_c + 3·σ_c of the healthy c (floored at ln 3: e below 2 is never anomalous);
     /// (4) a moving-block bootstrap draws blocks of `block_s` of consecutive healthy trips
     /// and runs the whole tracker over `years` of them at the healthy trip rate; the advisory
@@ -480,6 +486,7 @@ fn calibrate_drift(cfg: &mut RiskConfig, trips: &[TripEvidence]) {
     let warmup = (cfg.forgetting_trips as usize / 2).min(trips.len() / 3);
     let mut sum = [0.0; N_MODES];
     let mut sum2 = [0.0; N_MODES];
+    let mut nominal = [0.0; N_MODES];
     let mut s2_sum = 0.0;
     let mut count = 0.0;
     for (k, t) in trips.iter().enumerate() {
@@ -492,13 +499,14 @@ fn calibrate_drift(cfg: &mut RiskConfig, trips: &[TripEvidence]) {
         if k < warmup {
             continue;
         }
-        let Some((theta, _)) = rls.estimate(1.0) else {
+        let Some((theta, var)) = rls.estimate(1.0) else {
             continue;
         };
         count += 1.0;
         for m in 0..N_MODES {
             sum[m] += theta[m];
             sum2[m] += theta[m] * theta[m];
+            nominal[m] += var[m];
         }
     }
     if count < 2.0 {
@@ -512,6 +520,13 @@ fn calibrate_drift(cfg: &mut RiskConfig, trips: &[TripEvidence]) {
         // A floor of 0.5 % (relative units) keeps a very clean record from declaring any
         // wander anomalous.
         cfg.drift_sd[m] = var.sqrt().max(0.005);
+        // The variances above used s² = 1; the healthy s² turns them into SE².
+        let se2 = cfg.prior_s2 * nominal[m] / count;
+        cfg.se_scale[m] = if se2 > 0.0 {
+            (var / se2).sqrt().clamp(0.1, 1.0)
+        } else {
+            1.0
+        };
     }
     cfg.prior_info = rls.a;
 }
@@ -998,10 +1013,9 @@ impl RiskTracker {
                 a.drift[m] = theta[m] - cfg.healthy_coef[m];
                 a.drift_se[m] = var[m].sqrt();
                 // Never less than the healthy spread, never less than the current standard
-                // error (which counts each trip as one observation: conservative when the
-                // residuals within a trip are not fully correlated, and large while the data
-                // are thin, e.g. one direction only).
-                let z = a.drift[m] / a.drift_se[m].max(cfg.drift_sd[m]);
+                // error scaled as in the fit (large while the data are thin, e.g. one
+                // direction only).
+                let z = a.drift[m] / (cfg.se_scale[m] * a.drift_se[m]).max(cfg.drift_sd[m]);
                 a.z[m] = z.max(0.0);
                 c_modes[m] = a.z[m].ln_1p();
             }
@@ -1104,7 +1118,7 @@ pub(crate) mod tests {
     pub(crate) fn calibrated(model: &FittedModel) -> RiskConfig {
         let healthy = synthetic_trips(model, 11, 8.0, 0.0, &|_, _| 0.0);
         let settings = CalibrationSettings {
-            years: 1.0,
+            years: 5.0,
             ..CalibrationSettings::default()
         };
         RiskConfig::calibrate(&healthy, BaselineLimits::default(), &settings)

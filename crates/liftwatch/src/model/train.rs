@@ -61,6 +61,15 @@ pub struct TrainConfig {
     pub standstill_share: f64,
     /// Log a progress line every this many iterations (0: never).
     pub log_every: usize,
+    /// Most moving samples the hybrid stage uses: a longer log is thinned evenly, each kept
+    /// sample weighing for the ones it stands for. Stage 1, the standard errors and the risk
+    /// calibration always use every sample.
+    #[serde(default = "default_stage2_max_moving")]
+    pub stage2_max_moving: usize,
+}
+
+fn default_stage2_max_moving() -> usize {
+    6000
 }
 
 impl Default for TrainConfig {
@@ -76,6 +85,7 @@ impl Default for TrainConfig {
             w_n: 0.2,
             standstill_share: 0.1,
             log_every: 100,
+            stage2_max_moving: default_stage2_max_moving(),
         }
     }
 }
@@ -322,8 +332,9 @@ pub fn train(
     .max(1e-3);
     let weights = LossWeights { w_u: cfg.w_u, w_f: cfg.w_f, w_p: cfg.w_p, w_n: cfg.w_n, sigma_u, sigma_f };
     let net0 = ResidualNet::new(cfg.seed, [elevator.rated_speed_mps, 1.0, 1.0], [3.0 * sigma_u, 3.0 * sigma_f]);
+    let thinned = thin_moving(data, cfg.stage2_max_moving);
     let obj = Objective {
-        data,
+        data: &thinned,
         rated_load_kg: m_r,
         prior,
         map,
@@ -351,7 +362,7 @@ pub fn train(
     // Precondition θ by its Gauss-Newton curvature (per unit of the normalised loss): the data
     // pin Kd or U0 thousands of times harder than any single network weight, and an unscaled
     // quasi-Newton method would crawl along that valley.
-    let wsum: f64 = data.iter().map(|o| o.w).sum();
+    let wsum: f64 = thinned.iter().map(|o| o.w).sum();
     let mut precond = vec![1.0; N_UNKNOWNS];
     for k in 0..N_PHYS {
         precond[k] = (2.0 * cfg.w_u.max(1e-3) * curvature[k] / wsum).sqrt().max(1e-6);
@@ -400,6 +411,26 @@ pub fn train(
         warnings,
     };
     Ok(Trained { parameters, net, scales, summary })
+}
+
+/// Every k-th moving observation (k = ⌈moving/max⌉) with its weight multiplied by k, and every
+/// standstill observation: the same loss in expectation at a fraction of the cost.
+fn thin_moving(data: &[Obs], max: usize) -> Vec<Obs> {
+    let moving = data.iter().filter(|o| o.s != 0).count();
+    if max == 0 || moving <= max {
+        return data.to_vec();
+    }
+    let k = moving.div_ceil(max);
+    let mut i = 0usize;
+    data.iter()
+        .filter_map(|o| {
+            if o.s == 0 {
+                return Some(*o);
+            }
+            i += 1;
+            ((i - 1) % k == 0).then(|| Obs { w: o.w * k as f64, ..*o })
+        })
+        .collect()
 }
 
 fn point(stage: u8, iteration: usize, loss: f64, st: LossStats, map: &ParamMap, x: &[f64]) -> TrainPoint {

@@ -76,6 +76,10 @@ pub const BRAKE: usize = 1;
 /// Index of the friction signature.
 pub const FRICTION: usize = 2;
 
+/// Independent forgetting windows of healthy trips needed before the standard errors of the
+/// re-identification are scaled to the healthy spread (a week of a busy elevator has ~8).
+const MIN_WINDOWS: f64 = 5.0;
+
 /// Seconds per year, for trip rates.
 const YEAR_S: f64 = 365.25 * 86_400.0;
 
@@ -522,7 +526,10 @@ fn calibrate_drift(cfg: &mut RiskConfig, trips: &[TripEvidence]) {
         cfg.drift_sd[m] = var.sqrt().max(0.005);
         // The variances above used s² = 1; the healthy s² turns them into SE².
         let se2 = cfg.prior_s2 * nominal[m] / count;
-        cfg.se_scale[m] = if se2 > 0.0 {
+        // The spread of θ̂ is known only from many independent forgetting windows; with
+        // fewer than MIN_WINDOWS the nominal errors stand unscaled.
+        let windows = count / cfg.forgetting_trips;
+        cfg.se_scale[m] = if se2 > 0.0 && windows >= MIN_WINDOWS {
             (var / se2).sqrt().clamp(0.1, 1.0)
         } else {
             1.0

@@ -82,10 +82,15 @@ impl Time {
     /// The axis of an excerpt `[a, b]` of a series starting at `start`.
     fn excerpt(start: f64, a: f64, b: f64) -> Time {
         let (unit_s, u) = Time::unit(b - a);
+        let label = if a - start < 0.5 {
+            format!("time since start of data ({u})")
+        } else {
+            format!("time ({u}) after {} into the data", span_text(a - start))
+        };
         Time {
             origin: a,
             unit_s,
-            label: format!("time ({u}) after {} into the data", span_text(a - start)),
+            label,
         }
     }
 
@@ -346,10 +351,12 @@ fn preprocessing(c: &Ctx, a: f64, b: f64) -> Section {
         quantile(fin.iter().copied(), 0.0),
         quantile(fin.iter().copied(), 1.0),
     );
+    // Whole floors, at least five of them, so that the ticks are floor numbers.
     let (flo, fhi) = if flo.is_finite() {
-        (flo - 0.5, fhi + 0.5)
+        let pad = (0.5 * (4.0 - (fhi - flo))).max(0.0).ceil();
+        (flo - pad - 0.5, fhi + pad + 0.5)
     } else {
-        (0.5, 1.5)
+        (0.5, 5.5)
     };
     let mut p4 = Panel::new("Floor indicator", x, Axis::new(flo, fhi, "floor"));
     p4.marks = bands;
@@ -1111,10 +1118,8 @@ fn entries(rows: &[liftwatch::monitor::MonitorRow], level: Level) -> Vec<f64> {
     out
 }
 
-/// The risk axis: linear from zero while the thresholds and the bulk of the values are within
-/// a factor 50 of each other, else logarithmic from a twentieth of the lowest threshold, so that
-/// a low advisory threshold and a high alarm threshold are both readable.
-fn risk_axis(values: &[f64], thresholds: &[f64], label: &str) -> Axis {
+/// Top of a risk axis and its lowest positive threshold.
+fn risk_span(values: &[f64], thresholds: &[f64]) -> (f64, f64) {
     let top = quantile(values.iter().copied(), 0.995).max(0.0);
     let t_hi = thresholds
         .iter()
@@ -1126,8 +1131,33 @@ fn risk_axis(values: &[f64], thresholds: &[f64], label: &str) -> Axis {
         .copied()
         .filter(|t| t.is_finite() && *t > 0.0)
         .fold(f64::INFINITY, f64::min);
-    let hi = (1.08 * top).max(1.2 * t_hi).max(1e-9);
-    if t_lo.is_finite() && hi / t_lo > 50.0 {
+    ((1.08 * top).max(1.2 * t_hi).max(1e-9), t_lo)
+}
+
+/// True when the risk figures use logarithmic axes: some risk or threshold is more than 20
+/// times the lowest threshold of its panel, so that a linear axis would hide the lower one.
+/// Decided once for all risk panels of the report, so that they read alike.
+fn risk_log(c: &Ctx) -> bool {
+    let cfg = &c.inp.model.risk;
+    let rows = c.inp.pinn;
+    let combined: Vec<f64> = rows.iter().map(|r| r.risk).collect();
+    let modes: Vec<f64> = rows
+        .iter()
+        .flat_map(|r| [r.risk_motor, r.risk_brake, r.risk_friction])
+        .collect();
+    [
+        risk_span(&combined, &[cfg.advisory, cfg.alarm]),
+        risk_span(&modes, &cfg.advisory_modes),
+    ]
+    .iter()
+    .any(|(hi, lo)| lo.is_finite() && hi / lo > 20.0)
+}
+
+/// The risk axis: linear from zero, or logarithmic from a twentieth of the lowest threshold
+/// (a risk of zero lies on the lower edge).
+fn risk_axis(values: &[f64], thresholds: &[f64], label: &str, log: bool) -> Axis {
+    let (hi, t_lo) = risk_span(values, thresholds);
+    if log && t_lo.is_finite() {
         Axis {
             min: t_lo / 20.0,
             max: 1.5 * hi,
@@ -1148,7 +1178,7 @@ fn risk(c: &Ctx) -> Section {
     let mut p1 = Panel::new(
         "Combined risk R (the paper's time-accumulated index)",
         x.clone(),
-        risk_axis(&rk, &[cfg.advisory, cfg.alarm], "risk R (1)"),
+        risk_axis(&rk, &[cfg.advisory, cfg.alarm], "risk R (1)", risk_log(c)),
     );
     p1.marks.push(Mark::HLine {
         y: cfg.advisory,
@@ -1201,7 +1231,12 @@ fn risk(c: &Ctx) -> Section {
                 .collect()
         })
         .collect();
-    let y2 = risk_axis(&per.concat(), &cfg.advisory_modes, "risk R_m (1)");
+    let y2 = risk_axis(
+        &per.concat(),
+        &cfg.advisory_modes,
+        "risk R_m (1)",
+        risk_log(c),
+    );
     let mut p2 = Panel::new(
         "Risk per fault mode, with the per-mode threshold (dashed)",
         x,
@@ -1328,18 +1363,40 @@ fn comparison(c: &Ctx) -> Section {
         Axis::new(-0.1, 1.25, "baseline state"),
     );
     p1.y_ticks = vec![(0.0, "normal".into()), (1.0, "alarm".into())];
-    p1.marks.push(Mark::Line {
-        pts: whole_line(c, &tt, &state),
+    // Each alarm run as a bar at least about two pixels wide, so a one-sample alarm shows.
+    let min_w = (c.end - c.start) / 450.0;
+    let mut bars: Vec<(f64, f64, f64)> = Vec::new();
+    let mut run: Option<f64> = None;
+    for (i, (&t, &on)) in tt.iter().zip(&state).enumerate() {
+        if on > 0.5 && run.is_none() {
+            run = Some(t);
+        }
+        let ends = on <= 0.5 || i + 1 == tt.len();
+        if let (Some(t0), true) = (run, ends) {
+            let t1 = if on > 0.5 { t + c.step } else { t };
+            let mid = 0.5 * (t0 + t1);
+            let half = 0.5 * (t1 - t0).max(min_w);
+            bars.push((c.whole.x(mid - half), c.whole.x(mid + half), 1.0));
+            run = None;
+        }
+    }
+    p1.marks.push(Mark::HLine {
+        y: 0.0,
         color: RED,
-        width: 2,
-        label: Some("alarm state (each sample judged alone)".into()),
+        dash: Dash::Solid,
+        label: None,
+    });
+    p1.marks.push(Mark::Bars {
+        bars,
+        color: RED,
+        label: Some("alarm (each sample judged alone)".into()),
     });
     let pt: Vec<f64> = c.inp.pinn.iter().map(|r| r.time).collect();
     let rk: Vec<f64> = c.inp.pinn.iter().map(|r| r.risk).collect();
     let mut p2 = Panel::new(
         "liftwatch: combined risk on the same data",
         x,
-        risk_axis(&rk, &[cfg.advisory, cfg.alarm], "risk R (1)"),
+        risk_axis(&rk, &[cfg.advisory, cfg.alarm], "risk R (1)", risk_log(c)),
     );
     p2.marks.push(Mark::HLine {
         y: cfg.advisory,

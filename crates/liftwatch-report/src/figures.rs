@@ -1298,9 +1298,9 @@ fn risk(c: &Ctx) -> Section {
         .collect();
     let mut text = vec![format!(
         "The risk accumulates the excess of each trip's combined residual over the healthy boundary and decays by γ = {} \
-         per trip. {} Over this input R peaks at {}; {}; {}. The level at the end of the data is <b>{}</b>. On the \
-         logarithmic axes, a risk of zero lies on the lower edge. The per-mode threshold is the largest risk each mode \
-         reached in the healthy bootstrap of the fit; it attributes an episode to a mode.",
+         per trip. {} Over this input R peaks at {}; {}; {}. The level at the end of the data is <b>{}</b>.{} The \
+         per-mode threshold is the largest risk each mode reached in the healthy bootstrap of the fit (motor {}, brake {}, \
+         friction {}); it attributes an episode to a mode.",
         num(cfg.gamma),
         cfg.calibration.as_ref().map_or("The thresholds are the model file's settings.".to_string(), |k| format!(
             "The thresholds were calibrated on {} healthy trips ({} h), bootstrapped to {} simulated years, for a target of {} \
@@ -1315,6 +1315,10 @@ fn risk(c: &Ctx) -> Section {
         adv.first().map_or("it never reaches the advisory threshold".into(), |t| format!("it first reaches advisory after {}", span_text(t - c.start))),
         alm.first().map_or("no alarm is raised".into(), |t| format!("alarm after {}", span_text(t - c.start))),
         final_level.as_str(),
+        if risk_log(c) { " On the logarithmic axes, a risk of zero lies on the lower edge." } else { "" },
+        num(cfg.advisory_modes[MOTOR]),
+        num(cfg.advisory_modes[BRAKE]),
+        num(cfg.advisory_modes[FRICTION]),
     )];
     if !events.is_empty() {
         let more = c.inp.events.len().saturating_sub(12);

@@ -540,7 +540,7 @@ impl SuiteConfig {
         SuiteConfig {
             seed,
             quick,
-            train_days: 1.0,
+            train_days: 7.0,
             fault_days: if quick { 8.0 } else { 25.0 },
             healthy_days: if quick { 8.0 } else { 30.0 },
             threads: 2,

@@ -592,7 +592,7 @@ impl Monitor {
             }
             let evidence = Evidence::from_assessment(
                 &a,
-                self.model.parameters.f_c,
+                crate::risk::friction_reference(&self.model).0,
                 st.risk.trips,
                 st.implausible_trips,
             );
@@ -618,7 +618,7 @@ impl Monitor {
             e: res.e,
             kd_drift_pct: 100.0 * a.drift[MOTOR],
             friction_drift_pct: 100.0 * a.drift[FRICTION],
-            brake_drag_n: self.model.parameters.f_c * a.drift[BRAKE],
+            brake_drag_n: crate::risk::friction_reference(&self.model).0 * a.drift[BRAKE],
         }
     }
 

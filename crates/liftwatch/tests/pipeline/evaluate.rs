@@ -15,7 +15,10 @@ fn method<'a>(r: &'a evaluate::CaseResult, name: &str) -> &'a MethodResult {
 #[test]
 fn strong_fault_is_detected_and_healthy_run_stays_quiet() {
     let mut cfg = SuiteConfig::new(5, true);
-    cfg.train_days = 0.6;
+    // The suite trains on a week; three days keep this test short. It used 0.6 days until the
+    // fit learnt the rope imbalance and the risk stopped trusting in-sample standard errors;
+    // after that, 0.6 training days no longer gave the regression a stable healthy reference.
+    cfg.train_days = 3.0;
     let fleet = evaluate::fleet(true);
     let trained = evaluate::train(&fleet[0], 0, &cfg).expect("a healthy day fits");
     let c = &trained.charts;

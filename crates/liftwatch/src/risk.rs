@@ -252,7 +252,7 @@ impl Default for RiskConfig {
             gamma: 0.998,
             kappa: 0.1,
             d_max_trips: 30.0,
-            forgetting_trips: 500.0,
+            forgetting_trips: 3000.0,
             min_trip_samples: 3,
             trip_spread_u: [0.05, 1.0],
             trip_spread_f: [0.05, 1.0],

@@ -1,7 +1,7 @@
 //! `liftwatch demo`: the whole method on built-in defaults, from raw telemetry to a report.
 //!
 //! One simulated elevator (the paper's: 1000 kg, 1.75 m/s, 26 floors) is watched twice: a
-//! healthy day to learn it, then a longer period in which one fault mode develops. Both runs
+//! healthy week to learn it, then a longer period in which one fault mode develops. Both runs
 //! go through the same path a real log takes: raw `time,signal,value` telemetry on disk →
 //! alignment → features → fit or monitor. liftwatch and the fixed-threshold baseline watch
 //! the degradation; the report shows both.
@@ -27,16 +27,19 @@ pub struct Args {
     /// Where to write everything.
     #[arg(long, default_value = "liftwatch-demo")]
     pub out: PathBuf,
-    /// The fault that develops: friction, motor or brake.
-    #[arg(long, value_enum, default_value_t = DemoFault::Friction)]
+    /// The fault that develops: motor (default), friction or brake.
+    #[arg(long, value_enum, default_value_t = DemoFault::Motor)]
     pub scenario: DemoFault,
     /// Days watched after training; the fault starts at 40 % of them and ramps linearly.
     #[arg(long, default_value_t = 20.0)]
     pub days: f64,
+    /// Healthy days to learn from (a week covers the daily thermal cycle and a weekend).
+    #[arg(long, default_value_t = 7.0)]
+    pub train_days: f64,
     /// Seed of the elevator, its traffic and its sensors.
     #[arg(long, default_value_t = 42)]
     pub seed: u64,
-    /// Keep the degraded run's raw and aligned CSV files (about 20 MB per day).
+    /// Keep the raw and aligned CSV files of both runs (about 20 MB per simulated day).
     #[arg(long)]
     pub keep_raw: bool,
 }
@@ -65,6 +68,10 @@ impl DemoFault {
 /// Runs `demo`.
 pub fn run(args: Args) -> anyhow::Result<()> {
     anyhow::ensure!(args.days.is_finite() && (2.0..=400.0).contains(&args.days), "--days must be between 2 and 400");
+    anyhow::ensure!(
+        args.train_days.is_finite() && (0.5..=60.0).contains(&args.train_days),
+        "--train-days must be between 0.5 and 60"
+    );
     let started = Instant::now();
     let out = &args.out;
     std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
@@ -72,9 +79,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // One hidden plant for both runs, as one real elevator is learnt and then watched.
     let plant = SimElevator::from_elevator(&elevator, &mut Rng::new(args.seed));
 
-    step(started, "simulating a healthy day of telemetry to learn from");
+    step(started, &format!("simulating {} healthy days of telemetry to learn from", args.train_days));
     let train_dir = out.join("training");
-    let mut train_cfg = SimConfig::new(elevator.clone(), 1.0, args.seed ^ 0x7261_696E);
+    let mut train_cfg = SimConfig::new(elevator.clone(), args.train_days, args.seed ^ 0x7261_696E);
     train_cfg.plant = Some(plant.clone());
     write_dir(&train_cfg, &train_dir, &mut |_| {})?;
 
@@ -84,7 +91,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         eprintln!("warning: {w}");
     }
     let outcome = model::fit(&series, &elevator, &TrainConfig { log_every: 0, ..TrainConfig::default() }, &mut |_| {})
-        .context("fitting the training day")?;
+        .context("fitting the training days")?;
     let model_path = out.join("model.json");
     model::file::save(&model_path, &outcome.model)?;
     let fitted = started.elapsed().as_secs_f64();
@@ -122,8 +129,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let written = write_report(&report_dir, &inputs).context("writing the report")?;
     let index = written.last().cloned().unwrap_or_else(|| report_dir.join("index.html"));
     if !args.keep_raw {
-        for f in ["raw.csv", "aligned.csv"] {
-            let _ = std::fs::remove_file(run_dir.join(f));
+        for dir in [&train_dir, &run_dir] {
+            for f in ["raw.csv", "aligned.csv"] {
+                let _ = std::fs::remove_file(dir.join(f));
+            }
         }
     }
 

@@ -4,7 +4,8 @@
 //! with its Adam option run as the paper trains (20,000 full-batch epochs from the prior):
 //! wall time and the RMS of the voltage residual each reaches.
 //!
-//! Run: `cargo bench -p liftwatch --bench fit` (`FIT_BENCH_ADAM_EPOCHS=2000` for a quick look).
+//! Run: `cargo bench -p liftwatch --bench fit` (`FIT_BENCH_ADAM_EPOCHS=2000` for a quick look,
+//! `FIT_BENCH_LBFGS_ITERS=N` to change the L-BFGS iteration cap).
 
 use std::time::Instant;
 
@@ -32,7 +33,8 @@ fn main() {
         obs.len()
     );
 
-    let lbfgs = TrainConfig { log_every: 0, ..TrainConfig::default() };
+    let iters = std::env::var("FIT_BENCH_LBFGS_ITERS").ok().and_then(|v| v.parse().ok()).unwrap_or(TrainConfig::default().epochs);
+    let lbfgs = TrainConfig { epochs: iters, log_every: 0, ..TrainConfig::default() };
     let mut times = Vec::new();
     let mut fit = None;
     for _ in 0..5 {

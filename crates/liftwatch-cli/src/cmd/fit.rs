@@ -24,7 +24,7 @@ pub struct Args {
     /// Optimiser of the hybrid stage: lbfgs (default) or adam (the paper's schedule).
     #[arg(long, value_enum, default_value_t = OptimizerArg::Lbfgs)]
     pub optimizer: OptimizerArg,
-    /// Iterations of the hybrid stage (L-BFGS iterations or Adam epochs; default 600 or 20000).
+    /// Iterations of the hybrid stage (L-BFGS iterations or Adam epochs; default 1500 or 20000).
     #[arg(long)]
     pub epochs: Option<usize>,
     /// Adam's learning rate.

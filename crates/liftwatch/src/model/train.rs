@@ -76,7 +76,7 @@ impl Default for TrainConfig {
     fn default() -> Self {
         TrainConfig {
             optimizer: Optimizer::Lbfgs,
-            epochs: 600,
+            epochs: 1500,
             learning_rate: 1e-3,
             seed: 1,
             w_u: 1.0,

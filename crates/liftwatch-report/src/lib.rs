@@ -10,17 +10,11 @@
 //! ```no_run
 //! # fn main() -> Result<(), Box<dyn std::error::Error>> {
 //! use liftwatch::align::{read_series, AlignConfig};
-//! use liftwatch::monitor::Method;
-//! use liftwatch_report::{monitor_rows, write_report, ReportInputs};
+//! use liftwatch_report::{write_report, Analysis};
 //! let model = liftwatch::model::file::load("model.json".as_ref())?;
 //! let (series, _) = read_series("data.csv".as_ref(), &AlignConfig::default())?;
-//! let features = liftwatch::features::extract(&series, &model.features);
-//! let pinn = monitor_rows(&model, &series, Method::Pinn);
-//! let threshold = monitor_rows(&model, &series, Method::Threshold);
-//! let events: Vec<_> = pinn.iter().filter_map(|r| r.event).collect();
-//! let inputs = ReportInputs { model: &model, series: &series, features: &features, pinn: &pinn,
-//!     threshold: &threshold, events: &events, source: "data.csv" };
-//! let files = write_report("report".as_ref(), &inputs)?;
+//! let analysis = Analysis::run(&model, &series); // features, both monitors, events
+//! let files = write_report("report".as_ref(), &analysis.inputs(&model, &series, "data.csv"))?;
 //! # Ok(()) }
 //! ```
 //!
@@ -100,6 +94,45 @@ pub struct ReportInputs<'a> {
     pub events: &'a [Event],
     /// Name of the input shown in the report (a file name).
     pub source: &'a str,
+}
+
+/// What a report is drawn from, computed once from a model and a series: features, both
+/// monitors and the events. Owned, so that callers (the `report` and `demo` verbs) need not
+/// repeat the sequence.
+#[derive(Clone, Debug)]
+pub struct Analysis {
+    /// Features of the series, with the model's feature settings.
+    pub features: Features,
+    /// Monitor rows of the paper's method.
+    pub pinn: Vec<MonitorRow>,
+    /// Monitor rows of the fixed-threshold baseline.
+    pub threshold: Vec<MonitorRow>,
+    /// The paper's method's events.
+    pub events: Vec<Event>,
+}
+
+impl Analysis {
+    /// Runs features and both monitors over `series`.
+    pub fn run(model: &FittedModel, series: &AlignedSeries) -> Self {
+        let features = liftwatch::features::extract(series, &model.features);
+        let pinn = monitor_rows(model, series, Method::Pinn);
+        let threshold = monitor_rows(model, series, Method::Threshold);
+        let events = pinn.iter().filter_map(|r| r.event).collect();
+        Analysis { features, pinn, threshold, events }
+    }
+
+    /// The report inputs borrowing this analysis.
+    pub fn inputs<'a>(&'a self, model: &'a FittedModel, series: &'a AlignedSeries, source: &'a str) -> ReportInputs<'a> {
+        ReportInputs {
+            model,
+            series,
+            features: &self.features,
+            pinn: &self.pinn,
+            threshold: &self.threshold,
+            events: &self.events,
+            source,
+        }
+    }
 }
 
 /// The figures of a report, by file stem, in the order the report shows them.
@@ -197,20 +230,10 @@ mod tests {
         let model = liftwatch::model::fit(&series, &elevator, &cfg, &mut |_| {})
             .expect("0.4 simulated days fit")
             .model;
-        let features = liftwatch::features::extract(&series, &model.features);
-        let pinn = monitor_rows(&model, &series, Method::Pinn);
-        let threshold = monitor_rows(&model, &series, Method::Threshold);
-        assert_eq!(pinn.len(), series.len(), "one monitor row per sample");
-        let events: Vec<Event> = pinn.iter().filter_map(|r| r.event).collect();
-        let inputs = ReportInputs {
-            model: &model,
-            series: &series,
-            features: &features,
-            pinn: &pinn,
-            threshold: &threshold,
-            events: &events,
-            source: "sim <seed 11>.csv",
-        };
+        let analysis = Analysis::run(&model, &series);
+        assert_eq!(analysis.pinn.len(), series.len(), "one monitor row per sample");
+        let features = &analysis.features;
+        let inputs = analysis.inputs(&model, &series, "sim <seed 11>.csv");
         let dir = TempDir::new("all");
         let written = write_report(&dir.0, &inputs).expect("report is written");
         assert_eq!(written.len(), 2 * FIGURES.len() + 1);

@@ -77,7 +77,8 @@ pub const BRAKE: usize = 1;
 pub const FRICTION: usize = 2;
 
 /// Independent forgetting windows of healthy trips needed before the standard errors of the
-/// re-identification are scaled to the healthy spread (a week of a busy elevator has ~8).
+/// re-identification are widened to the healthy spread (with the default memory of 3000
+/// trips, a busy week gives about one and a half, so the nominal errors stand).
 const MIN_WINDOWS: f64 = 5.0;
 
 /// The advisory threshold is never below the risk of this many consecutive trips each 0.1

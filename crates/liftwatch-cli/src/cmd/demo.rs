@@ -13,13 +13,13 @@ use anyhow::Context;
 use liftwatch::alarm::Level;
 use liftwatch::align::{read_series, AlignConfig};
 use liftwatch::model::{self, TrainConfig};
-use liftwatch::monitor::{Method, MonitorRow};
+use liftwatch::monitor::MonitorRow;
 use liftwatch::rng::Rng;
 use liftwatch::sim::plant::SimElevator;
 use liftwatch::sim::scenario::FaultMode;
 use liftwatch::sim::{write_dir, SimConfig, SimTruth};
 use liftwatch::Elevator;
-use liftwatch_report::{monitor_rows, write_report, ReportInputs};
+use liftwatch_report::{write_report, Analysis};
 
 /// Flags of `liftwatch demo`.
 #[derive(Debug, clap::Args)]
@@ -109,24 +109,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         eprintln!("warning: {w}");
     }
     let m = &outcome.model;
-    let pinn = monitor_rows(m, &watched, Method::Pinn);
-    let threshold = monitor_rows(m, &watched, Method::Threshold);
-    let events: Vec<_> = pinn.iter().filter_map(|r| r.event).collect();
-    write_events(&out.join("events.jsonl"), &events)?;
+    let analysis = Analysis::run(m, &watched);
+    write_events(&out.join("events.jsonl"), &analysis.events)?;
 
     step(started, "writing the report");
-    let features = liftwatch::features::extract(&watched, &m.features);
-    let inputs = ReportInputs {
-        model: m,
-        series: &watched,
-        features: &features,
-        pinn: &pinn,
-        threshold: &threshold,
-        events: &events,
-        source: "demo: degraded run",
-    };
     let report_dir = out.join("report");
-    let written = write_report(&report_dir, &inputs).context("writing the report")?;
+    let written = write_report(&report_dir, &analysis.inputs(m, &watched, "demo: degraded run")).context("writing the report")?;
     let index = written.last().cloned().unwrap_or_else(|| report_dir.join("index.html"));
     if !args.keep_raw {
         for dir in [&train_dir, &run_dir] {
@@ -139,7 +127,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     println!();
     print!("{}", super::fit::summary(m, outcome.features.trips.len(), fitted));
     println!();
-    print!("{}", outcome_summary(&truth, &pinn, &threshold));
+    print!("{}", outcome_summary(&truth, &analysis.pinn, &analysis.threshold));
     println!("\nreport: {}", index.display());
     println!("model: {}   events: {}", model_path.display(), out.join("events.jsonl").display());
     println!("done in {:.0} s", started.elapsed().as_secs_f64());

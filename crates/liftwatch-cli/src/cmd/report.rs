@@ -10,8 +10,7 @@ use std::path::PathBuf;
 use anyhow::Context;
 use liftwatch::align::{read_series, AlignConfig};
 use liftwatch::model::file;
-use liftwatch::monitor::Method;
-use liftwatch_report::{monitor_rows, write_report, ReportInputs};
+use liftwatch_report::{write_report, Analysis};
 
 /// Flags of `liftwatch report`.
 #[derive(Debug, clap::Args)]
@@ -47,24 +46,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         series.len(),
         args.input.display()
     );
-    let features = liftwatch::features::extract(&series, &model.features);
-    let pinn = monitor_rows(&model, &series, Method::Pinn);
-    let threshold = monitor_rows(&model, &series, Method::Threshold);
-    let events: Vec<_> = pinn.iter().filter_map(|r| r.event).collect();
+    let analysis = Analysis::run(&model, &series);
     let source = args.input.file_name().map_or_else(
         || args.input.display().to_string(),
         |n| n.to_string_lossy().into_owned(),
     );
-    let inputs = ReportInputs {
-        model: &model,
-        series: &series,
-        features: &features,
-        pinn: &pinn,
-        threshold: &threshold,
-        events: &events,
-        source: &source,
-    };
-    let written = write_report(&args.out, &inputs)
+    let written = write_report(&args.out, &analysis.inputs(&model, &series, &source))
         .with_context(|| format!("cannot write the report to {}", args.out.display()))?;
     let index = written
         .last()

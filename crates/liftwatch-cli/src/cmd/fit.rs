@@ -100,7 +100,7 @@ pub fn summary(m: &model::FittedModel, trips: usize, seconds: f64) -> String {
         "fitted in {seconds:.2} s: {} moving samples in {trips} trips, {} standstill; rms r_U {:.2} V, rms r_F {:.0} N",
         f.moving_samples, f.standstill_samples, f.rms_u_v, f.rms_f_n
     );
-    let _ = writeln!(s, "{:<27} {:>12} {:>11}  {:<6} {}", "parameter", "value", "std error", "unit", "decided by");
+    let _ = writeln!(s, "{:<27} {:>12} {:>11}  {:<6} decided by", "parameter", "value", "std error", "unit");
     for r in &f.parameters {
         let se = r.std_error.map_or_else(|| "n/a".to_string(), |v| format!("{v:.5}"));
         let _ = writeln!(

@@ -244,16 +244,13 @@ impl Objective<'_> {
             let mut li = lw.w_u * r_u * r_u * iu2 + lw.w_n * (du * du * iu2 + df * df * if2);
             let g_du = -2.0 * lw.w_u * r_u * iu2 + 2.0 * lw.w_n * du * iu2;
             let mut g_df = 2.0 * lw.w_n * df * if2;
-            let mut g_th = [0.0; N_PHYS];
-            for k in 0..N_PHYS {
-                g_th[k] = -2.0 * lw.w_u * r_u * iu2 * pe.du[k];
-            }
+            let mut g_th = pe.du.map(|d| -2.0 * lw.w_u * r_u * iu2 * d);
             if o.s != 0 {
                 let r_f = pe.f + df - pe.f_u;
                 li += lw.w_f * r_f * r_f * if2;
                 g_df += 2.0 * lw.w_f * r_f * if2;
-                for k in 0..N_PHYS {
-                    g_th[k] += 2.0 * lw.w_f * r_f * if2 * pe.df[k];
+                for (g, d) in g_th.iter_mut().zip(pe.df) {
+                    *g += 2.0 * lw.w_f * r_f * if2 * d;
                 }
                 su += o.w * r_u * r_u;
                 sf += o.w * r_f * r_f;

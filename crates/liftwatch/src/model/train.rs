@@ -428,7 +428,7 @@ fn thin_moving(data: &[Obs], max: usize) -> Vec<Obs> {
                 return Some(*o);
             }
             i += 1;
-            ((i - 1) % k == 0).then(|| Obs { w: o.w * k as f64, ..*o })
+            ((i - 1) % k == 0).then_some(Obs { w: o.w * k as f64, ..*o })
         })
         .collect()
 }
@@ -527,8 +527,8 @@ fn gauss_newton(
             *h.at(k, k) += w_p * jk * jk;
             g[k] -= w_p * (t[k] - m[k]) / prior.sd[k] * jk;
         }
-        for k in 0..N_PHYS {
-            curvature[k] = h.get(k, k);
+        for (k, c) in curvature.iter_mut().enumerate() {
+            *c = h.get(k, k);
         }
         let mut improved = false;
         for _ in 0..30 {
@@ -569,6 +569,9 @@ fn gauss_newton(
     Ok((z, curvature))
 }
 
+/// Called after every stage-2 iteration with (iteration, loss, statistics, unknowns).
+type IterObserver<'a> = &'a mut dyn FnMut(usize, f64, LossStats, &[f64]);
+
 /// L-BFGS with a backtracking Armijo line search; returns the iterations run.
 ///
 /// It works in y = p·x (`pre` = p, a diagonal preconditioner), so the curvature it meets is near one.
@@ -577,7 +580,7 @@ fn lbfgs(
     x: &mut [f64],
     pre: &[f64],
     max_iter: usize,
-    on_iter: &mut dyn FnMut(usize, f64, LossStats, &[f64]),
+    on_iter: IterObserver<'_>,
 ) -> (usize, Vec<f64>) {
     const M: usize = 10;
     let n = x.len();
@@ -687,7 +690,7 @@ fn finish(y: &[f64], xs: &mut [f64], d: &[f64]) {
 }
 
 /// Adam (Kingma & Ba), full batch, as the paper trains; returns the epochs run.
-fn adam(obj: &Objective<'_>, x: &mut [f64], epochs: usize, lr: f64, on_iter: &mut dyn FnMut(usize, f64, LossStats, &[f64])) -> usize {
+fn adam(obj: &Objective<'_>, x: &mut [f64], epochs: usize, lr: f64, on_iter: IterObserver<'_>) -> usize {
     let (b1, b2, eps): (f64, f64, f64) = (0.9, 0.999, 1e-8);
     let n = x.len();
     let (mut m, mut v, mut g) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);

@@ -9,7 +9,9 @@ use clap::Parser;
 
 fn main() -> ExitCode {
     let args = args::Args::parse();
-    let Err(err) = cmd::run(args) else { return ExitCode::SUCCESS };
+    let Err(err) = cmd::run(args) else {
+        return ExitCode::SUCCESS;
+    };
     eprintln!("liftwatch: {err:#}"); // `:#` prints the whole cause chain on one line
     ExitCode::FAILURE
 }

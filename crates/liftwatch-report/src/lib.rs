@@ -118,11 +118,21 @@ impl Analysis {
         let pinn = monitor_rows(model, series, Method::Pinn);
         let threshold = monitor_rows(model, series, Method::Threshold);
         let events = pinn.iter().filter_map(|r| r.event).collect();
-        Analysis { features, pinn, threshold, events }
+        Analysis {
+            features,
+            pinn,
+            threshold,
+            events,
+        }
     }
 
     /// The report inputs borrowing this analysis.
-    pub fn inputs<'a>(&'a self, model: &'a FittedModel, series: &'a AlignedSeries, source: &'a str) -> ReportInputs<'a> {
+    pub fn inputs<'a>(
+        &'a self,
+        model: &'a FittedModel,
+        series: &'a AlignedSeries,
+        source: &'a str,
+    ) -> ReportInputs<'a> {
         ReportInputs {
             model,
             series,
@@ -231,7 +241,11 @@ mod tests {
             .expect("0.4 simulated days fit")
             .model;
         let analysis = Analysis::run(&model, &series);
-        assert_eq!(analysis.pinn.len(), series.len(), "one monitor row per sample");
+        assert_eq!(
+            analysis.pinn.len(),
+            series.len(),
+            "one monitor row per sample"
+        );
         let features = &analysis.features;
         let inputs = analysis.inputs(&model, &series, "sim <seed 11>.csv");
         let dir = TempDir::new("all");

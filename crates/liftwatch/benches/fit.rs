@@ -21,11 +21,18 @@ fn main() {
     sim.start_s = 8.0 * 3600.0; // 08:00-11:00, morning traffic as in the paper's recording
     let out = simulate(&sim).expect("the benchmark's settings are valid");
     let series = out.aligned();
-    let fcfg = fit_load_cell(&series, &FeatureConfig::for_elevator(&elevator)).expect("enough motion");
+    let fcfg =
+        fit_load_cell(&series, &FeatureConfig::for_elevator(&elevator)).expect("enough motion");
     let feats = extract(&series, &fcfg);
     let prior = PhysParams::prior_centre(&elevator);
-    let (obs, moving, rest) =
-        observations_weighted(&feats.rows, elevator.floors, 0.1, prior.ke, 0.005 * elevator.rated_voltage()).expect("enough motion");
+    let (obs, moving, rest) = observations_weighted(
+        &feats.rows,
+        elevator.floors,
+        0.1,
+        prior.ke,
+        0.005 * elevator.rated_voltage(),
+    )
+    .expect("enough motion");
     println!(
         "data: {} samples, {} trips, {moving} moving samples, {rest} standstill ({} observations after grouping)",
         series.len(),
@@ -33,8 +40,15 @@ fn main() {
         obs.len()
     );
 
-    let iters = std::env::var("FIT_BENCH_LBFGS_ITERS").ok().and_then(|v| v.parse().ok()).unwrap_or(TrainConfig::default().epochs);
-    let lbfgs = TrainConfig { epochs: iters, log_every: 0, ..TrainConfig::default() };
+    let iters = std::env::var("FIT_BENCH_LBFGS_ITERS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(TrainConfig::default().epochs);
+    let lbfgs = TrainConfig {
+        epochs: iters,
+        log_every: 0,
+        ..TrainConfig::default()
+    };
     let mut times = Vec::new();
     let mut fit = None;
     for _ in 0..5 {
@@ -49,8 +63,16 @@ fn main() {
         fit.summary.iterations, times[2], fit.summary.rms_u_v, fit.summary.loss_final
     );
 
-    let epochs = std::env::var("FIT_BENCH_ADAM_EPOCHS").ok().and_then(|v| v.parse().ok()).unwrap_or(20_000);
-    let adam = TrainConfig { optimizer: Optimizer::Adam, epochs, log_every: 0, ..TrainConfig::default() };
+    let epochs = std::env::var("FIT_BENCH_ADAM_EPOCHS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(20_000);
+    let adam = TrainConfig {
+        optimizer: Optimizer::Adam,
+        epochs,
+        log_every: 0,
+        ..TrainConfig::default()
+    };
     let t = Instant::now();
     let a = train(&obs, &elevator, &adam, &mut |_| {}).expect("fit");
     let ta = t.elapsed().as_secs_f64();
@@ -58,11 +80,23 @@ fn main() {
         "adam ({epochs} epochs from the prior): {ta:.3} s, rms r_U {:.3} V, loss {:.4e}",
         a.summary.rms_u_v, a.summary.loss_final
     );
-    println!("speed-up {:.1}x; rms ratio l-bfgs/adam {:.3}", ta / times[2], fit.summary.rms_u_v / a.summary.rms_u_v);
+    println!(
+        "speed-up {:.1}x; rms ratio l-bfgs/adam {:.3}",
+        ta / times[2],
+        fit.summary.rms_u_v / a.summary.rms_u_v
+    );
     // Kd drifts with winding temperature: the truth to compare with is its mean while moving.
-    let moving: Vec<f64> = out.rows.iter().filter(|r| r.v_true.abs() > 0.05).map(|r| r.kd_true).collect();
+    let moving: Vec<f64> = out
+        .rows
+        .iter()
+        .filter(|r| r.v_true.abs() > 0.05)
+        .map(|r| r.kd_true)
+        .collect();
     let kd_mean = moving.iter().sum::<f64>() / moving.len() as f64;
     let stage1 = fit.summary.history.first().map_or(f64::NAN, |p| p.theta[4]);
     println!("kd: truth (mean while moving) {kd_mean:.5}, physics stage {stage1:.5}, l-bfgs {:.5}, adam {:.5}", fit.parameters.kd, a.parameters.kd);
-    println!("truth {:?}\nlbfgs {:?}\nadam {:?}", out.truth.parameters, fit.parameters, a.parameters);
+    println!(
+        "truth {:?}\nlbfgs {:?}\nadam {:?}",
+        out.truth.parameters, fit.parameters, a.parameters
+    );
 }

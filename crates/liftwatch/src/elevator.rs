@@ -58,7 +58,10 @@ impl Elevator {
     /// TOML, lacks a rated value or holds an implausible one.
     pub fn from_toml_file(path: &Path) -> Result<Self> {
         let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
-        Self::from_toml_str(&text).map_err(|why| Error::Elevator { path: path.into(), why })
+        Self::from_toml_str(&text).map_err(|why| Error::Elevator {
+            path: path.into(),
+            why,
+        })
     }
 
     /// Parses and validates an elevator description; the error is a one-line reason.
@@ -99,7 +102,9 @@ impl Elevator {
             if v.is_finite() && (lo..=hi).contains(&v) {
                 Ok(())
             } else {
-                Err(format!("`{name}` = {v} is out of range, expected {lo} to {hi}"))
+                Err(format!(
+                    "`{name}` = {v} is out of range, expected {lo} to {hi}"
+                ))
             }
         };
         check("rated_load_kg", self.rated_load_kg, 100.0, 10_000.0)?;
@@ -160,7 +165,10 @@ mod tests {
 
     #[test]
     fn rated_values_alone_are_enough() {
-        let e = Elevator::from_toml_str("rated_load_kg = 1000.0\nrated_speed_mps = 1.75\nfloors = 26\n").unwrap();
+        let e = Elevator::from_toml_str(
+            "rated_load_kg = 1000.0\nrated_speed_mps = 1.75\nfloors = 26\n",
+        )
+        .unwrap();
         assert_eq!(e.floors, 26);
         assert!((e.expected_delta_m() + 450.0).abs() < 1e-9);
         assert_eq!(Elevator::from_toml_str(&e.to_toml_string()).unwrap(), e);
@@ -168,9 +176,18 @@ mod tests {
 
     #[test]
     fn missing_or_implausible_values_are_refused() {
-        assert!(Elevator::from_toml_str("rated_load_kg = 1000.0\nfloors = 26\n").unwrap_err().contains("rated_speed_mps"));
-        let err = Elevator::from_toml_str("rated_load_kg = -5.0\nrated_speed_mps = 1.0\nfloors = 8\n").unwrap_err();
+        assert!(
+            Elevator::from_toml_str("rated_load_kg = 1000.0\nfloors = 26\n")
+                .unwrap_err()
+                .contains("rated_speed_mps")
+        );
+        let err =
+            Elevator::from_toml_str("rated_load_kg = -5.0\nrated_speed_mps = 1.0\nfloors = 8\n")
+                .unwrap_err();
         assert!(err.contains("rated_load_kg"), "{err}");
-        assert!(Elevator::from_toml_str("rated_load_kg = 1000.0\nrated_speed_mps = 1.0\nfloors = 8\nspeed = 3\n").is_err());
+        assert!(Elevator::from_toml_str(
+            "rated_load_kg = 1000.0\nrated_speed_mps = 1.0\nfloors = 8\nspeed = 3\n"
+        )
+        .is_err());
     }
 }

@@ -8,8 +8,8 @@
 //! [`baseline`] is the conventional fixed-threshold method with the same output;
 //! [`sim`] is a seeded traction-elevator simulator that writes raw telemetry.
 
-pub mod align;
 pub mod alarm;
+pub mod align;
 pub mod baseline;
 pub mod elevator;
 pub mod error;

@@ -14,7 +14,10 @@ pub struct SquareMatrix {
 impl SquareMatrix {
     /// The n×n zero matrix.
     pub fn zeros(n: usize) -> Self {
-        SquareMatrix { n, a: vec![0.0; n * n] }
+        SquareMatrix {
+            n,
+            a: vec![0.0; n * n],
+        }
     }
 
     /// Order of the matrix.
@@ -113,7 +116,10 @@ mod tests {
     #[test]
     fn cholesky_solves_and_inverts_a_known_system() {
         let mut a = SquareMatrix::zeros(3);
-        for (i, row) in [[4.0, 2.0, 0.6], [2.0, 5.0, 1.0], [0.6, 1.0, 3.0]].iter().enumerate() {
+        for (i, row) in [[4.0, 2.0, 0.6], [2.0, 5.0, 1.0], [0.6, 1.0, 3.0]]
+            .iter()
+            .enumerate()
+        {
             for (j, v) in row.iter().enumerate() {
                 *a.at(i, j) = *v;
             }

@@ -697,7 +697,10 @@ impl TripEvidence {
 pub fn friction_reference(model: &FittedModel) -> (f64, f64) {
     let p = &model.parameters;
     let typical = crate::model::PhysParams::prior_centre(&model.elevator);
-    (p.f_c.max(0.5 * typical.f_c), p.c_visc.max(0.5 * typical.c_visc))
+    (
+        p.f_c.max(0.5 * typical.f_c),
+        p.c_visc.max(0.5 * typical.c_visc),
+    )
 }
 
 /// The fault-signature regressors of one moving sample (V per unit coefficient).

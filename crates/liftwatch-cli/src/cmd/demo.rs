@@ -67,7 +67,10 @@ impl DemoFault {
 
 /// Runs `demo`.
 pub fn run(args: Args) -> anyhow::Result<()> {
-    anyhow::ensure!(args.days.is_finite() && (2.0..=400.0).contains(&args.days), "--days must be between 2 and 400");
+    anyhow::ensure!(
+        args.days.is_finite() && (2.0..=400.0).contains(&args.days),
+        "--days must be between 2 and 400"
+    );
     anyhow::ensure!(
         args.train_days.is_finite() && (0.5..=60.0).contains(&args.train_days),
         "--train-days must be between 0.5 and 60"
@@ -79,31 +82,61 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // One hidden plant for both runs, as one real elevator is learnt and then watched.
     let plant = SimElevator::from_elevator(&elevator, &mut Rng::new(args.seed));
 
-    step(started, &format!("simulating {} healthy days of telemetry to learn from", args.train_days));
+    step(
+        started,
+        &format!(
+            "simulating {} healthy days of telemetry to learn from",
+            args.train_days
+        ),
+    );
     let train_dir = out.join("training");
     let mut train_cfg = SimConfig::new(elevator.clone(), args.train_days, args.seed ^ 0x7261_696E);
     train_cfg.plant = Some(plant.clone());
     write_dir(&train_cfg, &train_dir, &mut |_| {})?;
 
-    step(started, "fitting the hybrid model on the raw log (raw → aligned → features → physics + network)");
+    step(
+        started,
+        "fitting the hybrid model on the raw log (raw → aligned → features → physics + network)",
+    );
     let (series, report) = read_series(&train_dir.join("raw.csv"), &AlignConfig::default())?;
     if let Some(w) = report.warning() {
         eprintln!("warning: {w}");
     }
-    let outcome = model::fit(&series, &elevator, &TrainConfig { log_every: 0, ..TrainConfig::default() }, &mut |_| {})
-        .context("fitting the training days")?;
+    let outcome = model::fit(
+        &series,
+        &elevator,
+        &TrainConfig {
+            log_every: 0,
+            ..TrainConfig::default()
+        },
+        &mut |_| {},
+    )
+    .context("fitting the training days")?;
     let model_path = out.join("model.json");
     model::file::save(&model_path, &outcome.model)?;
     let fitted = started.elapsed().as_secs_f64();
 
-    step(started, &format!("simulating {} days in which the {} degrades", args.days, args.scenario.mode().name()));
+    step(
+        started,
+        &format!(
+            "simulating {} days in which the {} degrades",
+            args.days,
+            args.scenario.mode().name()
+        ),
+    );
     let run_dir = out.join("degraded");
-    let mut run_cfg = SimConfig::new(elevator.clone(), args.days, args.seed ^ 0x7761_7463).with_mode(args.scenario.mode());
+    let mut run_cfg = SimConfig::new(elevator.clone(), args.days, args.seed ^ 0x7761_7463)
+        .with_mode(args.scenario.mode());
     run_cfg.plant = Some(plant);
-    let truth = write_dir(&run_cfg, &run_dir, &mut |d| eprint!("\r  day {d:.0} of {}   ", args.days))?;
+    let truth = write_dir(&run_cfg, &run_dir, &mut |d| {
+        eprint!("\r  day {d:.0} of {}   ", args.days)
+    })?;
     eprintln!();
 
-    step(started, "watching it with liftwatch and with the fixed-threshold baseline");
+    step(
+        started,
+        "watching it with liftwatch and with the fixed-threshold baseline",
+    );
     let (watched, report) = read_series(&run_dir.join("raw.csv"), &AlignConfig::default())?;
     if let Some(w) = report.warning() {
         eprintln!("warning: {w}");
@@ -114,8 +147,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 
     step(started, "writing the report");
     let report_dir = out.join("report");
-    let written = write_report(&report_dir, &analysis.inputs(m, &watched, "demo: degraded run")).context("writing the report")?;
-    let index = written.last().cloned().unwrap_or_else(|| report_dir.join("index.html"));
+    let written = write_report(
+        &report_dir,
+        &analysis.inputs(m, &watched, "demo: degraded run"),
+    )
+    .context("writing the report")?;
+    let index = written
+        .last()
+        .cloned()
+        .unwrap_or_else(|| report_dir.join("index.html"));
     if !args.keep_raw {
         for dir in [&train_dir, &run_dir] {
             for f in ["raw.csv", "aligned.csv"] {
@@ -125,11 +165,21 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
 
     println!();
-    print!("{}", super::fit::summary(m, outcome.features.trips.len(), fitted));
+    print!(
+        "{}",
+        super::fit::summary(m, outcome.features.trips.len(), fitted)
+    );
     println!();
-    print!("{}", outcome_summary(&truth, &analysis.pinn, &analysis.threshold));
+    print!(
+        "{}",
+        outcome_summary(&truth, &analysis.pinn, &analysis.threshold)
+    );
     println!("\nreport: {}", index.display());
-    println!("model: {}   events: {}", model_path.display(), out.join("events.jsonl").display());
+    println!(
+        "model: {}   events: {}",
+        model_path.display(),
+        out.join("events.jsonl").display()
+    );
     println!("done in {:.0} s", started.elapsed().as_secs_f64());
     Ok(())
 }
@@ -156,9 +206,19 @@ fn outcome_summary(truth: &SimTruth, pinn: &[MonitorRow], threshold: &[MonitorRo
     let sev = |t: f64| 100.0 * sc.severity_at(t);
     let mut s = String::new();
     let onset = sc.onset_s;
-    let _ = writeln!(s, "fault: {} from day {:.1}, linear to full severity at day {:.1}", sc.mode.name(), day(onset), day(sc.full_at_s));
-    let first = |rows: &[MonitorRow], level: Level| rows.iter().find(|r| r.level >= level).map(|r| r.time);
-    match pinn.iter().find_map(|r| r.event.filter(|e| e.level >= Level::Advisory)) {
+    let _ = writeln!(
+        s,
+        "fault: {} from day {:.1}, linear to full severity at day {:.1}",
+        sc.mode.name(),
+        day(onset),
+        day(sc.full_at_s)
+    );
+    let first =
+        |rows: &[MonitorRow], level: Level| rows.iter().find(|r| r.level >= level).map(|r| r.time);
+    match pinn
+        .iter()
+        .find_map(|r| r.event.filter(|e| e.level >= Level::Advisory))
+    {
         Some(e) => {
             let _ = writeln!(
                 s,
@@ -170,14 +230,22 @@ fn outcome_summary(truth: &SimTruth, pinn: &[MonitorRow], threshold: &[MonitorRo
                 e.mode.as_str()
             );
             if let Some(t) = first(pinn, Level::Alarm) {
-                let _ = writeln!(s, "liftwatch: alarm on day {:.1} ({:.0} % of full severity)", day(t), sev(t));
+                let _ = writeln!(
+                    s,
+                    "liftwatch: alarm on day {:.1} ({:.0} % of full severity)",
+                    day(t),
+                    sev(t)
+                );
             }
         }
         None => {
             let _ = writeln!(s, "liftwatch: no advisory");
         }
     }
-    let activations = threshold.windows(2).filter(|w| w[0].level < Level::Alarm && w[1].level >= Level::Alarm).count();
+    let activations = threshold
+        .windows(2)
+        .filter(|w| w[0].level < Level::Alarm && w[1].level >= Level::Alarm)
+        .count();
     match first(threshold, Level::Alarm) {
         Some(t) => {
             let _ = writeln!(

@@ -59,7 +59,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         eprintln!("warning: {w}");
     }
     let (optimizer, epochs) = match args.optimizer {
-        OptimizerArg::Lbfgs => (Optimizer::Lbfgs, args.epochs.unwrap_or(TrainConfig::default().epochs)),
+        OptimizerArg::Lbfgs => (
+            Optimizer::Lbfgs,
+            args.epochs.unwrap_or(TrainConfig::default().epochs),
+        ),
         OptimizerArg::Adam => (Optimizer::Adam, args.epochs.unwrap_or(20_000)),
     };
     let cfg = TrainConfig {
@@ -67,10 +70,19 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         epochs,
         learning_rate: args.learning_rate,
         seed: args.seed,
-        log_every: if optimizer == Optimizer::Adam { 1000 } else { 50 },
+        log_every: if optimizer == Optimizer::Adam {
+            1000
+        } else {
+            50
+        },
         ..TrainConfig::default()
     };
-    eprintln!("fit: {} samples ({:.1} h) from {}", series.len(), series.duration_s() / 3600.0, args.input.display());
+    eprintln!(
+        "fit: {} samples ({:.1} h) from {}",
+        series.len(),
+        series.duration_s() / 3600.0,
+        args.input.display()
+    );
     let started = Instant::now();
     let quiet = args.quiet;
     let mut progress = |p: &TrainPoint| {
@@ -85,7 +97,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .with_context(|| format!("fitting {}", args.input.display()))?;
     let seconds = started.elapsed().as_secs_f64();
     model::file::save(&args.out, &outcome.model)?;
-    print!("{}", summary(&outcome.model, outcome.features.trips.len(), seconds));
+    print!(
+        "{}",
+        summary(&outcome.model, outcome.features.trips.len(), seconds)
+    );
     println!("wrote {}", args.out.display());
     Ok(())
 }
@@ -100,9 +115,15 @@ pub fn summary(m: &model::FittedModel, trips: usize, seconds: f64) -> String {
         "fitted in {seconds:.2} s: {} moving samples in {trips} trips, {} standstill; rms r_U {:.2} V, rms r_F {:.0} N",
         f.moving_samples, f.standstill_samples, f.rms_u_v, f.rms_f_n
     );
-    let _ = writeln!(s, "{:<27} {:>12} {:>11}  {:<6} decided by", "parameter", "value", "std error", "unit");
+    let _ = writeln!(
+        s,
+        "{:<27} {:>12} {:>11}  {:<6} decided by",
+        "parameter", "value", "std error", "unit"
+    );
     for r in &f.parameters {
-        let se = r.std_error.map_or_else(|| "n/a".to_string(), |v| format!("{v:.5}"));
+        let se = r
+            .std_error
+            .map_or_else(|| "n/a".to_string(), |v| format!("{v:.5}"));
         let _ = writeln!(
             s,
             "{:<27} {:>12.5} {:>11}  {:<6} {}",
@@ -110,7 +131,11 @@ pub fn summary(m: &model::FittedModel, trips: usize, seconds: f64) -> String {
             r.value,
             se,
             r.unit,
-            if r.determined { "data" } else { "prior (weakly identifiable)" }
+            if r.determined {
+                "data"
+            } else {
+                "prior (weakly identifiable)"
+            }
         );
     }
     for w in &f.warnings {

@@ -67,14 +67,26 @@ impl Prior {
         let m_r = e.rated_load_kg;
         Prior {
             centre: c,
-            sd: [0.25 * m_r, 0.5 * c.m0, 1.0 * c.f_c, 1.0 * c.c_visc, 1.0 * c.kd, 0.5 * c.ke, 1.0 * c.u0.max(5.0), 0.3, 0.5 * m_r],
+            sd: [
+                0.25 * m_r,
+                0.5 * c.m0,
+                1.0 * c.f_c,
+                1.0 * c.c_visc,
+                1.0 * c.kd,
+                0.5 * c.ke,
+                1.0 * c.u0.max(5.0),
+                0.3,
+                0.5 * m_r,
+            ],
         }
     }
 
     /// Σ ((θ_k − μ_k)/τ_k)².
     pub fn penalty(&self, p: &PhysParams) -> f64 {
         let (t, m) = (p.to_array(), self.centre.to_array());
-        (0..N_PHYS).map(|k| ((t[k] - m[k]) / self.sd[k]).powi(2)).sum()
+        (0..N_PHYS)
+            .map(|k| ((t[k] - m[k]) / self.sd[k]).powi(2))
+            .sum()
     }
 }
 
@@ -102,7 +114,10 @@ fn sigmoid(z: f64) -> f64 {
 impl ParamMap {
     /// The map centred on the prior: z = 0 gives the prior centre.
     pub fn new(prior: &Prior, rated_load_kg: f64) -> Self {
-        ParamMap { centre: prior.centre.to_array(), delta_m_scale: 0.1 * rated_load_kg }
+        ParamMap {
+            centre: prior.centre.to_array(),
+            delta_m_scale: 0.1 * rated_load_kg,
+        }
     }
 
     /// θ(z).
@@ -122,7 +137,11 @@ impl ParamMap {
     pub fn dtheta_dz(&self, z: &[f64]) -> [f64; N_PHYS] {
         let mut d = [0.0; N_PHYS];
         for k in 0..N_PHYS {
-            d[k] = if PhysParams::SIGNED[k] { self.delta_m_scale } else { self.centre[k] * sigmoid(z[k]) / LN2 };
+            d[k] = if PhysParams::SIGNED[k] {
+                self.delta_m_scale
+            } else {
+                self.centre[k] * sigmoid(z[k]) / LN2
+            };
         }
         d
     }
@@ -227,7 +246,10 @@ impl Objective<'_> {
         let (z, w) = x.split_at(N_PHYS);
         let p = self.map.theta(z);
         let lw = &self.weights;
-        let (iu2, if2) = (1.0 / (lw.sigma_u * lw.sigma_u), 1.0 / (lw.sigma_f * lw.sigma_f));
+        let (iu2, if2) = (
+            1.0 / (lw.sigma_u * lw.sigma_u),
+            1.0 / (lw.sigma_f * lw.sigma_f),
+        );
         let mut gtheta = [0.0; N_PHYS];
         if let Some(g) = grad.as_deref_mut() {
             g.iter_mut().for_each(|v| *v = 0.0);
@@ -237,7 +259,11 @@ impl Objective<'_> {
         let mut cache = NetCache::default();
         for o in self.data {
             let pe = phys_eval(&p, &self.motor_ref, o, self.rated_load_kg);
-            let xin = [o.v / self.input_scale[0], o.lambda / self.input_scale[1], o.a / self.input_scale[2]];
+            let xin = [
+                o.v / self.input_scale[0],
+                o.lambda / self.input_scale[1],
+                o.a / self.input_scale[2],
+            ];
             let y = forward_raw(w, xin, &mut cache);
             let (du, df) = (y[0] * self.output_scale[0], y[1] * self.output_scale[1]);
             let r_u = o.u - pe.u - du;
@@ -262,7 +288,10 @@ impl Objective<'_> {
                 for k in 0..N_PHYS {
                     gtheta[k] += o.w * g_th[k];
                 }
-                let dy = [o.w * g_du * self.output_scale[0], o.w * g_df * self.output_scale[1]];
+                let dy = [
+                    o.w * g_du * self.output_scale[0],
+                    o.w * g_df * self.output_scale[1],
+                ];
                 backward_raw(w, &cache, dy, &mut g[N_PHYS..]);
             }
         }
@@ -284,7 +313,10 @@ impl Objective<'_> {
             }
         }
         let stats = if wm > 0.0 {
-            LossStats { rms_u: (su / wm).sqrt(), rms_f: (sf / wm).sqrt() }
+            LossStats {
+                rms_u: (su / wm).sqrt(),
+                rms_f: (sf / wm).sqrt(),
+            }
         } else {
             LossStats::default()
         };
@@ -305,7 +337,14 @@ mod tests {
             rated_load_kg: 1000.0,
             prior,
             map: ParamMap::new(&prior, 1000.0),
-            weights: LossWeights { w_u: 1.0, w_f: 0.7, w_p: 1.0, w_n: 0.3, sigma_u: 2.0, sigma_f: 300.0 },
+            weights: LossWeights {
+                w_u: 1.0,
+                w_f: 0.7,
+                w_p: 1.0,
+                w_n: 0.3,
+                sigma_u: 2.0,
+                sigma_f: 300.0,
+            },
             input_scale: [1.75, 1.0, 1.0],
             output_scale: [5.0, 400.0],
             motor_ref: PhysParams::prior_centre(&e),
@@ -317,7 +356,15 @@ mod tests {
             .map(|i| {
                 let s = [1i8, -1, 0][i % 3];
                 let v = f64::from(s) * rng.uniform(0.1, 1.75);
-                Obs { s, v, lambda: rng.uniform(0.0, 0.8), a: rng.uniform(-1.0, 1.0), q: rng.uniform(-0.5, 0.5), u: rng.uniform(0.0, 400.0), w: rng.uniform(0.2, 1.0) }
+                Obs {
+                    s,
+                    v,
+                    lambda: rng.uniform(0.0, 0.8),
+                    a: rng.uniform(-1.0, 1.0),
+                    q: rng.uniform(-0.5, 0.5),
+                    u: rng.uniform(0.0, 400.0),
+                    w: rng.uniform(0.2, 1.0),
+                }
             })
             .collect()
     }
@@ -336,7 +383,11 @@ mod tests {
             xp[i] += h;
             xm[i] -= h;
             let num = (obj.eval(&xp, None).0 - obj.eval(&xm, None).0) / (2.0 * h);
-            assert!((num - g[i]).abs() <= 1e-5 * (1.0 + num.abs()), "unknown {i}: numeric {num} analytic {}", g[i]);
+            assert!(
+                (num - g[i]).abs() <= 1e-5 * (1.0 + num.abs()),
+                "unknown {i}: numeric {num} analytic {}",
+                g[i]
+            );
         }
     }
 
@@ -345,13 +396,27 @@ mod tests {
         let e = Elevator::new(1000.0, 1.75, 26);
         let prior = Prior::for_elevator(&e);
         let map = ParamMap::new(&prior, 1000.0);
-        let p = PhysParams { delta_m: -420.0, m0: 3900.0, f_c: 250.0, c_visc: 80.0, kd: 0.004, ke: 190.0, u0: 6.0, alpha_down: 0.85, m_rope: -150.0 };
+        let p = PhysParams {
+            delta_m: -420.0,
+            m0: 3900.0,
+            f_c: 250.0,
+            c_visc: 80.0,
+            kd: 0.004,
+            ke: 190.0,
+            u0: 6.0,
+            alpha_down: 0.85,
+            m_rope: -150.0,
+        };
         let back = map.theta(&map.z(&p)).to_array();
         for (a, b) in back.iter().zip(p.to_array()) {
             assert!((a - b).abs() < 1e-9 * b.abs().max(1.0), "{a} vs {b}");
         }
         let low = map.theta(&[-50.0; N_PHYS]);
-        let positive = low.to_array().into_iter().zip(PhysParams::SIGNED).filter(|(_, signed)| !signed);
+        let positive = low
+            .to_array()
+            .into_iter()
+            .zip(PhysParams::SIGNED)
+            .filter(|(_, signed)| !signed);
         assert!(positive.clone().count() == 7 && positive.into_iter().all(|(v, _)| v > 0.0));
     }
 }

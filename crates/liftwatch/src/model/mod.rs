@@ -119,10 +119,17 @@ pub fn fit(
     cfg: &TrainConfig,
     observer: &mut dyn FnMut(&train::TrainPoint),
 ) -> Result<FitOutcome> {
-    let feature_cfg = crate::features::fit_load_cell(series, &FeatureConfig::for_elevator(elevator))?;
+    let feature_cfg =
+        crate::features::fit_load_cell(series, &FeatureConfig::for_elevator(elevator))?;
     let features = crate::features::extract(series, &feature_cfg);
     let prior = PhysParams::prior_centre(elevator);
-    let (obs, _, n_rest) = train::observations_weighted(&features.rows, elevator.floors, cfg.standstill_share, prior.ke, 0.005 * elevator.rated_voltage())?;
+    let (obs, _, n_rest) = train::observations_weighted(
+        &features.rows,
+        elevator.floors,
+        cfg.standstill_share,
+        prior.ke,
+        0.005 * elevator.rated_voltage(),
+    )?;
     let trained = train::train(&obs, elevator, cfg, observer)?;
     let mut summary = trained.summary;
     summary.standstill_samples = n_rest;
@@ -140,5 +147,9 @@ pub fn fit(
     let limits = BaselineLimits::calibrate(&model, &features.rows, BASELINE_MARGIN)?;
     let healthy_trips = crate::risk::trip_evidence(&model, &features.rows);
     model.risk = RiskConfig::calibrate(&healthy_trips, limits, &CalibrationSettings::default())?;
-    Ok(FitOutcome { model, features, healthy_trips })
+    Ok(FitOutcome {
+        model,
+        features,
+        healthy_trips,
+    })
 }

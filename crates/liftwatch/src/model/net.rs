@@ -66,7 +66,11 @@ impl ResidualNet {
         for w in &mut weights[W2..B2] {
             *w = rng.uniform(-lim2, lim2);
         }
-        ResidualNet { weights, input_scale, output_scale }
+        ResidualNet {
+            weights,
+            input_scale,
+            output_scale,
+        }
     }
 
     /// δ(x) = (δU in V, δF in N) for the raw inputs (v, λ, a).
@@ -78,7 +82,11 @@ impl ResidualNet {
 
     /// Inputs divided by their scales.
     pub fn scaled(&self, v: f64, lambda: f64, a: f64) -> [f64; N_IN] {
-        [v / self.input_scale[0], lambda / self.input_scale[1], a / self.input_scale[2]]
+        [
+            v / self.input_scale[0],
+            lambda / self.input_scale[1],
+            a / self.input_scale[2],
+        ]
     }
 }
 
@@ -188,7 +196,11 @@ mod tests {
             wp[i] += 1e-6;
             wm[i] -= 1e-6;
             let num = (loss(&wp) - loss(&wm)) / 2e-6;
-            assert!((num - grad[i]).abs() < 1e-7 * (1.0 + num.abs()), "weight {i}: {num} vs {}", grad[i]);
+            assert!(
+                (num - grad[i]).abs() < 1e-7 * (1.0 + num.abs()),
+                "weight {i}: {num} vs {}",
+                grad[i]
+            );
         }
     }
 }

@@ -49,20 +49,52 @@ pub struct PhysParams {
 
 impl PhysParams {
     /// Parameter names in the order of [`PhysParams::to_array`], as in the model file.
-    pub const NAMES: [&'static str; N_PHYS] = ["delta_m", "m0", "f_c", "c_visc", "kd", "ke", "u0", "alpha_down", "m_rope"];
+    pub const NAMES: [&'static str; N_PHYS] = [
+        "delta_m",
+        "m0",
+        "f_c",
+        "c_visc",
+        "kd",
+        "ke",
+        "u0",
+        "alpha_down",
+        "m_rope",
+    ];
     /// Units, in the same order.
-    pub const UNITS: [&'static str; N_PHYS] = ["kg", "kg", "N", "N s/m", "V/N", "V s/m", "V", "1", "kg"];
+    pub const UNITS: [&'static str; N_PHYS] =
+        ["kg", "kg", "N", "N s/m", "V/N", "V s/m", "V", "1", "kg"];
     /// Parameters that may take either sign (the others are positive).
-    pub const SIGNED: [bool; N_PHYS] = [true, false, false, false, false, false, false, false, true];
+    pub const SIGNED: [bool; N_PHYS] =
+        [true, false, false, false, false, false, false, false, true];
 
     /// The parameters as an array in the order of [`PhysParams::NAMES`].
     pub fn to_array(&self) -> [f64; N_PHYS] {
-        [self.delta_m, self.m0, self.f_c, self.c_visc, self.kd, self.ke, self.u0, self.alpha_down, self.m_rope]
+        [
+            self.delta_m,
+            self.m0,
+            self.f_c,
+            self.c_visc,
+            self.kd,
+            self.ke,
+            self.u0,
+            self.alpha_down,
+            self.m_rope,
+        ]
     }
 
     /// The parameters from an array in the order of [`PhysParams::NAMES`].
     pub fn from_array(a: [f64; N_PHYS]) -> Self {
-        PhysParams { delta_m: a[0], m0: a[1], f_c: a[2], c_visc: a[3], kd: a[4], ke: a[5], u0: a[6], alpha_down: a[7], m_rope: a[8] }
+        PhysParams {
+            delta_m: a[0],
+            m0: a[1],
+            f_c: a[2],
+            c_visc: a[3],
+            kd: a[4],
+            ke: a[5],
+            u0: a[6],
+            alpha_down: a[7],
+            m_rope: a[8],
+        }
     }
 
     /// Plausible values for an elevator known only by its description: the centres of the priors.
@@ -134,7 +166,11 @@ mod tests {
     #[test]
     fn voltage_and_implied_force_are_inverse() {
         let p = PhysParams::prior_centre(&Elevator::new(1000.0, 1.75, 26));
-        for (s, v, lam, a) in [(1, 1.7, 0.3, 0.2), (-1, -1.2, 0.05, -0.4), (1, 0.3, 0.9, 0.8)] {
+        for (s, v, lam, a) in [
+            (1, 1.7, 0.3, 0.2),
+            (-1, -1.2, 0.05, -0.4),
+            (1, 0.3, 0.9, 0.8),
+        ] {
             let f = p.force(s, v, lam, a, 0.2, 1000.0);
             let u = p.voltage(s, v, f);
             assert!((p.force_from_voltage(s, v, u) - f).abs() < 1e-6 * f.abs().max(1.0));

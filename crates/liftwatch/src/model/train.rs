@@ -23,7 +23,7 @@ use crate::elevator::Elevator;
 use crate::error::{Error, Result};
 use crate::features::FeatureRow;
 use crate::linalg::SquareMatrix;
-use crate::model::loss::{LossStats, LossWeights, Obs, Objective, ParamMap, Prior, N_UNKNOWNS};
+use crate::model::loss::{LossStats, LossWeights, Objective, Obs, ParamMap, Prior, N_UNKNOWNS};
 use crate::model::net::ResidualNet;
 use crate::model::physics::{PhysParams, N_PHYS};
 use crate::model::ResidualScales;
@@ -100,7 +100,10 @@ impl TrainConfig {
             if v.is_finite() && v >= 0.0 {
                 Ok(())
             } else {
-                Err(Error::InvalidConfig { field, why: format!("{v} must be a finite number >= 0") })
+                Err(Error::InvalidConfig {
+                    field,
+                    why: format!("{v} must be a finite number >= 0"),
+                })
             }
         };
         pos("w_u", self.w_u)?;
@@ -109,10 +112,16 @@ impl TrainConfig {
         pos("w_n", self.w_n)?;
         pos("standstill_share", self.standstill_share)?;
         if !(self.learning_rate > 0.0 && self.learning_rate.is_finite()) {
-            return Err(Error::InvalidConfig { field: "learning_rate", why: format!("{} must be > 0", self.learning_rate) });
+            return Err(Error::InvalidConfig {
+                field: "learning_rate",
+                why: format!("{} must be > 0", self.learning_rate),
+            });
         }
         if self.w_u + self.w_f == 0.0 {
-            return Err(Error::InvalidConfig { field: "w_u", why: "w_u and w_f cannot both be 0".into() });
+            return Err(Error::InvalidConfig {
+                field: "w_u",
+                why: "w_u and w_f cannot both be 0".into(),
+            });
         }
         Ok(())
     }
@@ -212,7 +221,11 @@ pub const MIN_TRIPS: usize = 6;
 ///
 /// # Errors
 /// [`Error::TooLittleMotion`] and [`Error::Unidentifiable`] when the rows cannot determine θ.
-pub fn observations(rows: &[FeatureRow], floors: u32, standstill_share: f64) -> Result<(Vec<Obs>, usize, usize)> {
+pub fn observations(
+    rows: &[FeatureRow],
+    floors: u32,
+    standstill_share: f64,
+) -> Result<(Vec<Obs>, usize, usize)> {
     observations_weighted(rows, floors, standstill_share, 0.0, 1.0)
 }
 
@@ -228,17 +241,28 @@ pub fn observations_weighted(
     ke_v_s_per_m: f64,
     sigma_v: f64,
 ) -> Result<(Vec<Obs>, usize, usize)> {
-    let ok = |r: &FeatureRow| r.v.is_finite() && r.lambda.is_finite() && r.a.is_finite() && r.voltage.is_finite();
+    let ok = |r: &FeatureRow| {
+        r.v.is_finite() && r.lambda.is_finite() && r.a.is_finite() && r.voltage.is_finite()
+    };
     let mut moving: Vec<Obs> = Vec::new();
     let mut trips = std::collections::BTreeSet::new();
     let (mut up, mut down) = (0usize, 0usize);
-    let mut bins: std::collections::BTreeMap<i64, (f64, f64, f64)> = std::collections::BTreeMap::new();
+    let mut bins: std::collections::BTreeMap<i64, (f64, f64, f64)> =
+        std::collections::BTreeMap::new();
     let mut n_rest = 0usize;
     for (i, r) in rows.iter().enumerate().filter(|(_, r)| ok(r)) {
         if r.s != 0 {
             let w = interpolation_weight(rows, i, ke_v_s_per_m, sigma_v);
             let q = PhysParams::relative_height(r.floor, floors);
-            moving.push(Obs { s: r.s, v: r.v, lambda: r.lambda, a: r.a, q, u: r.voltage, w });
+            moving.push(Obs {
+                s: r.s,
+                v: r.v,
+                lambda: r.lambda,
+                a: r.a,
+                q,
+                u: r.voltage,
+                w,
+            });
             if let Some(t) = r.trip {
                 trips.insert(t);
             }
@@ -248,7 +272,9 @@ pub fn observations_weighted(
                 down += 1;
             }
         } else {
-            let b = bins.entry((r.lambda * 200.0).round() as i64).or_insert((0.0, 0.0, 0.0));
+            let b = bins
+                .entry((r.lambda * 200.0).round() as i64)
+                .or_insert((0.0, 0.0, 0.0));
             b.0 += 1.0;
             b.1 += r.lambda;
             b.2 += r.voltage;
@@ -258,7 +284,12 @@ pub fn observations_weighted(
     let moving_s = moving.len() as f64;
     let moving_w: f64 = moving.iter().map(|o| o.w).sum();
     if moving_s < MIN_MOVING_S || trips.len() < MIN_TRIPS {
-        return Err(Error::TooLittleMotion { moving_s, trips: trips.len(), need_s: MIN_MOVING_S, need_trips: MIN_TRIPS });
+        return Err(Error::TooLittleMotion {
+            moving_s,
+            trips: trips.len(),
+            need_s: MIN_MOVING_S,
+            need_trips: MIN_TRIPS,
+        });
     }
     if up < 30 || down < 30 {
         return Err(Error::Unidentifiable(format!(
@@ -273,7 +304,15 @@ pub fn observations_weighted(
     let rest_w = standstill_share * moving_w / n_rest as f64;
     let n_moving = moving.len();
     for (n, lam, u) in bins.into_values() {
-        moving.push(Obs { s: 0, v: 0.0, lambda: lam / n, a: 0.0, q: 0.0, u: u / n, w: n * rest_w });
+        moving.push(Obs {
+            s: 0,
+            v: 0.0,
+            lambda: lam / n,
+            a: 0.0,
+            q: 0.0,
+            u: u / n,
+            w: n * rest_w,
+        });
     }
     Ok((moving, n_moving, n_rest))
 }
@@ -321,17 +360,34 @@ pub fn train(
     let mut iteration = 0;
     let mut curvature = [1.0; N_PHYS];
     for _round in 0..3 {
-        (z, curvature) = gauss_newton(data, &prior, &map, m_r, sigma_u, cfg.w_p, z, &mut iteration)?;
+        (z, curvature) =
+            gauss_newton(data, &prior, &map, m_r, sigma_u, cfg.w_p, z, &mut iteration)?;
         let p = map.theta(&z);
-        sigma_u = robust_sigma(data.iter().filter(|o| o.s != 0).map(|o| o.u - phys_u(&p, o, m_r))).max(1e-3);
+        sigma_u = robust_sigma(
+            data.iter()
+                .filter(|o| o.s != 0)
+                .map(|o| o.u - phys_u(&p, o, m_r)),
+        )
+        .max(1e-3);
     }
     let p1 = map.theta(&z);
     let sigma_f = robust_sigma(data.iter().filter(|o| o.s != 0).map(|o| {
         p1.force(o.s, o.v, o.lambda, o.a, o.q, m_r) - p1.force_from_voltage(o.s, o.v, o.u)
     }))
     .max(1e-3);
-    let weights = LossWeights { w_u: cfg.w_u, w_f: cfg.w_f, w_p: cfg.w_p, w_n: cfg.w_n, sigma_u, sigma_f };
-    let net0 = ResidualNet::new(cfg.seed, [elevator.rated_speed_mps, 1.0, 1.0], [3.0 * sigma_u, 3.0 * sigma_f]);
+    let weights = LossWeights {
+        w_u: cfg.w_u,
+        w_f: cfg.w_f,
+        w_p: cfg.w_p,
+        w_n: cfg.w_n,
+        sigma_u,
+        sigma_f,
+    };
+    let net0 = ResidualNet::new(
+        cfg.seed,
+        [elevator.rated_speed_mps, 1.0, 1.0],
+        [3.0 * sigma_u, 3.0 * sigma_f],
+    );
     let thinned = thin_moving(data, cfg.stage2_max_moving);
     let obj = Objective {
         data: &thinned,
@@ -353,7 +409,11 @@ pub fn train(
     if cfg.optimizer == Optimizer::Adam {
         x[..N_PHYS].iter_mut().for_each(|v| *v = 0.0); // the paper starts from the prior
     }
-    let every = if cfg.log_every == 0 { usize::MAX } else { cfg.log_every };
+    let every = if cfg.log_every == 0 {
+        usize::MAX
+    } else {
+        cfg.log_every
+    };
     let mut on_iter = |it: usize, loss: f64, st: LossStats, x: &[f64]| {
         if it % every == 0 || it == cfg.epochs {
             log(point(2, iteration + it, loss, st, &map, x), &mut history);
@@ -365,7 +425,9 @@ pub fn train(
     let wsum: f64 = thinned.iter().map(|o| o.w).sum();
     let mut precond = vec![1.0; N_UNKNOWNS];
     for k in 0..N_PHYS {
-        precond[k] = (2.0 * cfg.w_u.max(1e-3) * curvature[k] / wsum).sqrt().max(1e-6);
+        precond[k] = (2.0 * cfg.w_u.max(1e-3) * curvature[k] / wsum)
+            .sqrt()
+            .max(1e-6);
     }
     let iters = match cfg.optimizer {
         Optimizer::Lbfgs => {
@@ -377,7 +439,10 @@ pub fn train(
     };
     let (loss_final, st) = obj.eval(&x, None);
     if history.last().map(|p| p.iteration) != Some(iteration + iters) {
-        log(point(2, iteration + iters, loss_final, st, &map, &x), &mut history);
+        log(
+            point(2, iteration + iters, loss_final, st, &map, &x),
+            &mut history,
+        );
     }
 
     let parameters = map.theta(&x[..N_PHYS]);
@@ -387,11 +452,16 @@ pub fn train(
     // Healthy scales from the final residuals of moving samples.
     let model_u = |o: &Obs| {
         let [du, _] = net.forward(o.v, o.lambda, o.a);
-        o.u - parameters.voltage(o.s, o.v, parameters.force(o.s, o.v, o.lambda, o.a, o.q, m_r)) - du
+        o.u - parameters.voltage(
+            o.s,
+            o.v,
+            parameters.force(o.s, o.v, o.lambda, o.a, o.q, m_r),
+        ) - du
     };
     let model_f = |o: &Obs| {
         let [_, df] = net.forward(o.v, o.lambda, o.a);
-        parameters.force(o.s, o.v, o.lambda, o.a, o.q, m_r) + df - parameters.force_from_voltage(o.s, o.v, o.u)
+        parameters.force(o.s, o.v, o.lambda, o.a, o.q, m_r) + df
+            - parameters.force_from_voltage(o.s, o.v, o.u)
     };
     let scales = ResidualScales {
         sigma_u_v: robust_sigma(data.iter().filter(|o| o.s != 0).map(model_u)).max(1e-3),
@@ -410,7 +480,12 @@ pub fn train(
         iterations: iters,
         warnings,
     };
-    Ok(Trained { parameters, net, scales, summary })
+    Ok(Trained {
+        parameters,
+        net,
+        scales,
+        summary,
+    })
 }
 
 /// Every k-th moving observation (k = ⌈moving/max⌉) with its weight multiplied by k, and every
@@ -428,13 +503,30 @@ fn thin_moving(data: &[Obs], max: usize) -> Vec<Obs> {
                 return Some(*o);
             }
             i += 1;
-            ((i - 1) % k == 0).then_some(Obs { w: o.w * k as f64, ..*o })
+            ((i - 1) % k == 0).then_some(Obs {
+                w: o.w * k as f64,
+                ..*o
+            })
         })
         .collect()
 }
 
-fn point(stage: u8, iteration: usize, loss: f64, st: LossStats, map: &ParamMap, x: &[f64]) -> TrainPoint {
-    TrainPoint { stage, iteration, loss, rms_u_v: st.rms_u, rms_f_n: st.rms_f, theta: map.theta(&x[..N_PHYS]).to_array() }
+fn point(
+    stage: u8,
+    iteration: usize,
+    loss: f64,
+    st: LossStats,
+    map: &ParamMap,
+    x: &[f64],
+) -> TrainPoint {
+    TrainPoint {
+        stage,
+        iteration,
+        loss,
+        rms_u_v: st.rms_u,
+        rms_f_n: st.rms_f,
+        theta: map.theta(&x[..N_PHYS]).to_array(),
+    }
 }
 
 fn thin(h: Vec<TrainPoint>, max: usize) -> Vec<TrainPoint> {
@@ -443,7 +535,11 @@ fn thin(h: Vec<TrainPoint>, max: usize) -> Vec<TrainPoint> {
     }
     let step = h.len().div_ceil(max);
     let last = h.len() - 1;
-    h.into_iter().enumerate().filter(|(i, _)| i % step == 0 || *i == last).map(|(_, p)| p).collect()
+    h.into_iter()
+        .enumerate()
+        .filter(|(i, _)| i % step == 0 || *i == last)
+        .map(|(_, p)| p)
+        .collect()
 }
 
 fn phys_u(p: &PhysParams, o: &Obs, m_r: f64) -> f64 {
@@ -500,7 +596,10 @@ fn gauss_newton(
 ) -> Result<([f64; N_PHYS], [f64; N_PHYS])> {
     let cost = |z: &[f64; N_PHYS]| {
         let p = map.theta(z);
-        let d: f64 = data.iter().map(|o| o.w * ((o.u - phys_u(&p, o, m_r)) / sigma_u).powi(2)).sum();
+        let d: f64 = data
+            .iter()
+            .map(|o| o.w * ((o.u - phys_u(&p, o, m_r)) / sigma_u).powi(2))
+            .sum();
         d + w_p * prior.penalty(&p)
     };
     let mut mu = 1e-3;
@@ -617,7 +716,11 @@ fn lbfgs(
             alpha[i] = rho[i] * dot(&s_hist[i], &d);
             axpy(-alpha[i], &y_hist[i], &mut d);
         }
-        let gamma = if k > 0 { dot(&s_hist[k - 1], &y_hist[k - 1]) / dot(&y_hist[k - 1], &y_hist[k - 1]) } else { 1.0 / norm(&g).max(1e-12) };
+        let gamma = if k > 0 {
+            dot(&s_hist[k - 1], &y_hist[k - 1]) / dot(&y_hist[k - 1], &y_hist[k - 1])
+        } else {
+            1.0 / norm(&g).max(1e-12)
+        };
         d.iter_mut().for_each(|v| *v *= gamma);
         for i in 0..k {
             let beta = rho[i] * dot(&y_hist[i], &d);
@@ -690,7 +793,13 @@ fn finish(y: &[f64], xs: &mut [f64], d: &[f64]) {
 }
 
 /// Adam (Kingma & Ba), full batch, as the paper trains; returns the epochs run.
-fn adam(obj: &Objective<'_>, x: &mut [f64], epochs: usize, lr: f64, on_iter: IterObserver<'_>) -> usize {
+fn adam(
+    obj: &Objective<'_>,
+    x: &mut [f64],
+    epochs: usize,
+    lr: f64,
+    on_iter: IterObserver<'_>,
+) -> usize {
     let (b1, b2, eps): (f64, f64, f64) = (0.9, 0.999, 1e-8);
     let n = x.len();
     let (mut m, mut v, mut g) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
@@ -731,8 +840,12 @@ fn param_reports(
     m_r: f64,
     w_p: f64,
 ) -> (Vec<ParamReport>, Vec<String>) {
-    let sigma = robust_sigma(data.iter().filter(|o| o.s != 0).map(|o| o.u - phys_u(p, o, m_r) - net.forward(o.v, o.lambda, o.a)[0]))
-        .max(1e-6);
+    let sigma = robust_sigma(
+        data.iter()
+            .filter(|o| o.s != 0)
+            .map(|o| o.u - phys_u(p, o, m_r) - net.forward(o.v, o.lambda, o.a)[0]),
+    )
+    .max(1e-6);
     let mut h = SquareMatrix::zeros(N_PHYS);
     for o in data {
         let j = du_dtheta(p, o, m_r).map(|v| v / sigma);
@@ -743,7 +856,8 @@ fn param_reports(
     }
     let mut warnings = Vec::new();
     let Some(l) = h.cholesky() else {
-        warnings.push("the parameter covariance is singular: standard errors are not available".into());
+        warnings
+            .push("the parameter covariance is singular: standard errors are not available".into());
         let reps = PhysParams::NAMES
             .iter()
             .zip(p.to_array())
@@ -793,12 +907,33 @@ fn param_reports(
             }
         }
         let se = var.max(0.0).sqrt();
-        ParamReport { name: name.into(), unit: "V s/m".into(), value, std_error: Some(se), prior_sd: None, determined: se < 0.05 * value.abs() }
+        ParamReport {
+            name: name.into(),
+            unit: "V s/m".into(),
+            value,
+            std_error: Some(se),
+            prior_sd: None,
+            determined: se < 0.05 * value.abs(),
+        }
     };
-    reps.push(combo("ke + kd*c_visc", [0.0, 0.0, 0.0, p.kd, p.c_visc, 1.0, 0.0, 0.0, 0.0], p.ke + p.kd * p.c_visc));
+    reps.push(combo(
+        "ke + kd*c_visc",
+        [0.0, 0.0, 0.0, p.kd, p.c_visc, 1.0, 0.0, 0.0, 0.0],
+        p.ke + p.kd * p.c_visc,
+    ));
     reps.push(combo(
         "ke + alpha_down*kd*c_visc",
-        [0.0, 0.0, 0.0, p.alpha_down * p.kd, p.alpha_down * p.c_visc, 1.0, 0.0, p.kd * p.c_visc, 0.0],
+        [
+            0.0,
+            0.0,
+            0.0,
+            p.alpha_down * p.kd,
+            p.alpha_down * p.c_visc,
+            1.0,
+            0.0,
+            p.kd * p.c_visc,
+            0.0,
+        ],
         p.ke + p.alpha_down * p.kd * p.c_visc,
     ));
     // Sensor timing: a relative latency Δτ between the speed and voltage channels adds
@@ -817,7 +952,13 @@ mod tests {
 
     /// Data generated exactly by MODEL.md's equations plus Gaussian voltage noise: trips of
     /// trapezoidal speed, mostly light loads, standstill between trips.
-    pub(crate) fn paper_exact(truth: &PhysParams, e: &Elevator, noise_v: f64, trips: usize, seed: u64) -> Vec<FeatureRow> {
+    pub(crate) fn paper_exact(
+        truth: &PhysParams,
+        e: &Elevator,
+        noise_v: f64,
+        trips: usize,
+        seed: u64,
+    ) -> Vec<FeatureRow> {
         let floors = e.floors;
         let mut rng = Rng::new(seed);
         let mut rows = Vec::new();
@@ -841,12 +982,36 @@ mod tests {
                 let st = if sp > 0.05 { s } else { 0 };
                 let f = truth.force(st, v, lambda, a, q, e.rated_load_kg);
                 let u = truth.voltage(st, v, f) + noise_v * rng.normal();
-                rows.push(FeatureRow { time: t, v, s: st, lambda, a_v: a, a_l: f64::NAN, a, voltage: u, floor, phase: crate::features::Phase::Cruising, trip: Some(trip as u32) });
+                rows.push(FeatureRow {
+                    time: t,
+                    v,
+                    s: st,
+                    lambda,
+                    a_v: a,
+                    a_l: f64::NAN,
+                    a,
+                    voltage: u,
+                    floor,
+                    phase: crate::features::Phase::Cruising,
+                    trip: Some(trip as u32),
+                });
                 t += 1.0;
             }
             for _ in 0..20 {
                 let u = truth.u0 + noise_v * rng.normal();
-                rows.push(FeatureRow { time: t, v: 0.0, s: 0, lambda, a_v: 0.0, a_l: f64::NAN, a: 0.0, voltage: u, floor, phase: crate::features::Phase::Standstill, trip: None });
+                rows.push(FeatureRow {
+                    time: t,
+                    v: 0.0,
+                    s: 0,
+                    lambda,
+                    a_v: 0.0,
+                    a_l: f64::NAN,
+                    a: 0.0,
+                    voltage: u,
+                    floor,
+                    phase: crate::features::Phase::Standstill,
+                    trip: None,
+                });
                 t += 1.0;
             }
         }
@@ -854,7 +1019,17 @@ mod tests {
     }
 
     fn truth() -> PhysParams {
-        PhysParams { delta_m: -430.0, m0: 3300.0, f_c: 260.0, c_visc: 110.0, kd: 0.0052, ke: 175.0, u0: 8.0, alpha_down: 0.82, m_rope: -180.0 }
+        PhysParams {
+            delta_m: -430.0,
+            m0: 3300.0,
+            f_c: 260.0,
+            c_visc: 110.0,
+            kd: 0.0052,
+            ke: 175.0,
+            u0: 8.0,
+            alpha_down: 0.82,
+            m_rope: -180.0,
+        }
     }
 
     #[test]
@@ -864,7 +1039,11 @@ mod tests {
         let t = truth();
         let rows = paper_exact(&t, &e, 2.0, 480, 5);
         let (obs, _, _) = observations(&rows, e.floors, 0.1).unwrap();
-        let cfg = TrainConfig { epochs: 200, log_every: 0, ..TrainConfig::default() };
+        let cfg = TrainConfig {
+            epochs: 200,
+            log_every: 0,
+            ..TrainConfig::default()
+        };
         let fit = train(&obs, &e, &cfg, &mut |_| {}).unwrap();
         let p = fit.parameters;
         let rel = |a: f64, b: f64| (a - b).abs() / b.abs();
@@ -874,19 +1053,52 @@ mod tests {
             ("alpha_down", p.alpha_down, t.alpha_down),
             ("m0", p.m0, t.m0),
             ("delta_m", p.delta_m, t.delta_m),
-            ("ke + kd c (up)", p.ke + p.kd * p.c_visc, t.ke + t.kd * t.c_visc),
-            ("ke + α kd c (down)", p.ke + p.alpha_down * p.kd * p.c_visc, t.ke + t.alpha_down * t.kd * t.c_visc),
+            (
+                "ke + kd c (up)",
+                p.ke + p.kd * p.c_visc,
+                t.ke + t.kd * t.c_visc,
+            ),
+            (
+                "ke + α kd c (down)",
+                p.ke + p.alpha_down * p.kd * p.c_visc,
+                t.ke + t.alpha_down * t.kd * t.c_visc,
+            ),
             ("m_rope", p.m_rope, t.m_rope),
         ] {
-            assert!(rel(got, want) < 0.02, "{name}: got {got}, want {want} ({:.2} %)", 100.0 * rel(got, want));
+            assert!(
+                rel(got, want) < 0.02,
+                "{name}: got {got}, want {want} ({:.2} %)",
+                100.0 * rel(got, want)
+            );
         }
         // F_c is a small difference of two large constants (Δm·g ± F_c): it is tested against
         // its own standard error, which the fit must report honestly.
-        let se = |name: &str| fit.summary.parameters.iter().find(|r| r.name == name).and_then(|r| r.std_error).unwrap();
-        assert!((p.f_c - t.f_c).abs() < 3.0 * se("f_c"), "f_c {} ± {} vs {}", p.f_c, se("f_c"), t.f_c);
+        let se = |name: &str| {
+            fit.summary
+                .parameters
+                .iter()
+                .find(|r| r.name == name)
+                .and_then(|r| r.std_error)
+                .unwrap()
+        };
+        assert!(
+            (p.f_c - t.f_c).abs() < 3.0 * se("f_c"),
+            "f_c {} ± {} vs {}",
+            p.f_c,
+            se("f_c"),
+            t.f_c
+        );
         // c separates from Ke only through α_down ≠ 1: the fit must say it could not determine it.
-        assert!(fit.summary.warnings.iter().any(|w| w.starts_with("c_visc")), "{:?}", fit.summary.warnings);
-        assert!((fit.summary.rms_u_v - 2.0).abs() < 0.2, "rms {}", fit.summary.rms_u_v);
+        assert!(
+            fit.summary.warnings.iter().any(|w| w.starts_with("c_visc")),
+            "{:?}",
+            fit.summary.warnings
+        );
+        assert!(
+            (fit.summary.rms_u_v - 2.0).abs() < 0.2,
+            "rms {}",
+            fit.summary.rms_u_v
+        );
     }
 
     #[test]
@@ -900,25 +1112,51 @@ mod tests {
             r.voltage += 5.0 * (-((r.v.abs() - 0.9) / 0.3).powi(2)).exp();
         }
         let (obs, _, _) = observations(&rows, e.floors, 0.1).unwrap();
-        let physics_only = TrainConfig { epochs: 0, log_every: 0, ..TrainConfig::default() };
-        let hybrid = TrainConfig { epochs: 400, log_every: 0, ..TrainConfig::default() };
+        let physics_only = TrainConfig {
+            epochs: 0,
+            log_every: 0,
+            ..TrainConfig::default()
+        };
+        let hybrid = TrainConfig {
+            epochs: 400,
+            log_every: 0,
+            ..TrainConfig::default()
+        };
         let p_fit = train(&obs, &e, &physics_only, &mut |_| {}).unwrap();
         let h_fit = train(&obs, &e, &hybrid, &mut |_| {}).unwrap();
-        assert!(h_fit.summary.rms_u_v < 0.75 * p_fit.summary.rms_u_v, "{} vs {}", h_fit.summary.rms_u_v, p_fit.summary.rms_u_v);
-        assert!((h_fit.parameters.kd - t.kd).abs() / t.kd < 0.05, "kd {}", h_fit.parameters.kd);
+        assert!(
+            h_fit.summary.rms_u_v < 0.75 * p_fit.summary.rms_u_v,
+            "{} vs {}",
+            h_fit.summary.rms_u_v,
+            p_fit.summary.rms_u_v
+        );
+        assert!(
+            (h_fit.parameters.kd - t.kd).abs() / t.kd < 0.05,
+            "kd {}",
+            h_fit.parameters.kd
+        );
     }
 
     #[test]
     fn too_little_motion_is_refused() {
         let e = Elevator::new(1000.0, 1.75, 26);
         let rows = paper_exact(&truth(), &e, 2.0, 3, 5);
-        assert!(matches!(observations(&rows, e.floors, 0.1), Err(Error::TooLittleMotion { .. })));
+        assert!(matches!(
+            observations(&rows, e.floors, 0.1),
+            Err(Error::TooLittleMotion { .. })
+        ));
     }
 
     #[test]
     fn one_direction_only_is_refused() {
         let e = Elevator::new(1000.0, 1.75, 26);
-        let rows: Vec<FeatureRow> = paper_exact(&truth(), &e, 2.0, 60, 5).into_iter().filter(|r| r.s >= 0).collect();
-        assert!(matches!(observations(&rows, e.floors, 0.1), Err(Error::Unidentifiable(_))));
+        let rows: Vec<FeatureRow> = paper_exact(&truth(), &e, 2.0, 60, 5)
+            .into_iter()
+            .filter(|r| r.s >= 0)
+            .collect();
+        assert!(matches!(
+            observations(&rows, e.floors, 0.1),
+            Err(Error::Unidentifiable(_))
+        ));
     }
 }

@@ -1,6 +1,6 @@
 //! Integration tests of the pipeline, one module per stage.
-mod sim;
-mod features;
 mod align;
 mod evaluate;
+mod features;
 mod monitor;
+mod sim;

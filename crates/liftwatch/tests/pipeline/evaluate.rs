@@ -37,11 +37,29 @@ fn strong_fault_is_detected_and_healthy_run_stays_quiet() {
     };
     let h = evaluate::run_case(&healthy, &trained, &cfg, 0).unwrap();
     assert!(h.trips > 300, "{} trips in 1.5 days", h.trips);
+    // liftwatch is calibrated to ≤ 1 false advisory per elevator-year and holds it on new days:
+    // a healthy run must stay silent. The textbook charts are calibrated the same way on the
+    // training days but, as the full suite measures, signal 5-40 times a year on new days, so a
+    // 1.5-day run may see one; for them the test checks that a signal is counted as false and
+    // scaled to a yearly rate, never credited as a detection.
+    assert_eq!(
+        method(&h, "liftwatch").false_signals,
+        0,
+        "{:?}",
+        method(&h, "liftwatch")
+    );
     for name in ["liftwatch", "cusum", "ewma"] {
         let m = method(&h, name);
-        assert_eq!(m.false_signals, 0, "{name} on a healthy run: {m:?}");
-        assert!(m.delay_days.is_none());
+        assert!(
+            m.delay_days.is_none(),
+            "{name}: a healthy run has nothing to detect"
+        );
         assert!((m.exposure_days - 1.5).abs() < 1e-9);
+        let rate = m.false_signals as f64 / 1.5 * 365.25;
+        assert!(
+            (m.false_per_year - rate).abs() < 1e-6 * rate.max(1.0),
+            "{name}: {m:?}"
+        );
     }
 
     // Friction doubled (σ = 4 × the default +25 %) in one step at 40 % of 2.5 days.

@@ -397,6 +397,8 @@ impl MonitorState {
 #[derive(Clone, Debug)]
 pub struct Monitor {
     model: FittedModel,
+    /// [`crate::risk::friction_reference`] of the model, computed once.
+    friction: (f64, f64),
     cache: PredictionCache,
     st: MonitorState,
 }
@@ -423,6 +425,7 @@ impl Monitor {
         };
         Monitor {
             model: model.clone(),
+            friction: crate::risk::friction_reference(model),
             cache: PredictionCache::default(),
             st,
         }
@@ -448,6 +451,7 @@ impl Monitor {
         }
         Ok(Monitor {
             model: model.clone(),
+            friction: crate::risk::friction_reference(model),
             cache: PredictionCache::default(),
             st: state,
         })
@@ -513,7 +517,7 @@ impl Monitor {
             st.open_trip = x.trip;
         }
         if let (Some(p), true) = (pred, x.s != 0 && x.trip.is_some()) {
-            st.trip.push(model, x, &p, &res);
+            st.trip.push(model, self.friction, x, &p, &res);
         }
         if let Some(t) = ended {
             self.end_trip(&t);
@@ -590,12 +594,8 @@ impl Monitor {
                     st.episode_mode = m;
                 }
             }
-            let evidence = Evidence::from_assessment(
-                &a,
-                crate::risk::friction_reference(&self.model).0,
-                st.risk.trips,
-                st.implausible_trips,
-            );
+            let evidence =
+                Evidence::from_assessment(&a, self.friction.0, st.risk.trips, st.implausible_trips);
             event = Some(Event {
                 time: x.time,
                 level,
@@ -618,7 +618,7 @@ impl Monitor {
             e: res.e,
             kd_drift_pct: 100.0 * a.drift[MOTOR],
             friction_drift_pct: 100.0 * a.drift[FRICTION],
-            brake_drag_n: crate::risk::friction_reference(&self.model).0 * a.drift[BRAKE],
+            brake_drag_n: self.friction.0 * a.drift[BRAKE],
         }
     }
 

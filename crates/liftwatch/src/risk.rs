@@ -703,10 +703,16 @@ pub fn friction_reference(model: &FittedModel) -> (f64, f64) {
     )
 }
 
-/// The fault-signature regressors of one moving sample (V per unit coefficient).
-pub fn signature(model: &FittedModel, x: &FeatureRow, f_pred: f64) -> [f64; N_MODES] {
+/// The fault-signature regressors of one moving sample (V per unit coefficient);
+/// `friction` is [`friction_reference`] of `model`, computed once by the caller.
+pub fn signature(
+    model: &FittedModel,
+    friction: (f64, f64),
+    x: &FeatureRow,
+    f_pred: f64,
+) -> [f64; N_MODES] {
     let p = &model.parameters;
-    let (f_c, c_visc) = friction_reference(model);
+    let (f_c, c_visc) = friction;
     let phi_kd = p.phi(x.s) * p.kd;
     let s = f64::from(x.s);
     let braking = x.s == -1 || x.phase == Phase::Decelerating;
@@ -742,8 +748,16 @@ pub struct TripAccumulator {
 
 impl TripAccumulator {
     /// Adds one moving sample with its prediction and residuals; standstill samples and
-    /// samples without a voltage residual are ignored.
-    pub fn push(&mut self, model: &FittedModel, x: &FeatureRow, p: &Prediction, r: &Residuals) {
+    /// samples without a voltage residual are ignored. `friction` is
+    /// [`friction_reference`] of `model`.
+    pub fn push(
+        &mut self,
+        model: &FittedModel,
+        friction: (f64, f64),
+        x: &FeatureRow,
+        p: &Prediction,
+        r: &Residuals,
+    ) {
         if x.s == 0 || !r.r_u.is_finite() {
             return;
         }
@@ -762,7 +776,7 @@ impl TripAccumulator {
             self.sum_e_f += r.e_f;
             self.n_f += 1;
         }
-        let sig = signature(model, x, p.f_pred);
+        let sig = signature(model, friction, x, p.f_pred);
         let mut k = 0;
         for i in 0..N_MODES {
             self.xtr[i] += sig[i] * r.r_u;
@@ -818,6 +832,7 @@ pub fn trip_evidence(model: &FittedModel, rows: &[FeatureRow]) -> Vec<TripEviden
     let mut out = Vec::new();
     let mut acc = TripAccumulator::default();
     let mut cache = PredictionCache::default();
+    let friction = friction_reference(model);
     let mut open: Option<u32> = None;
     for x in rows {
         if x.trip != open {
@@ -827,7 +842,7 @@ pub fn trip_evidence(model: &FittedModel, rows: &[FeatureRow]) -> Vec<TripEviden
         if x.s != 0 && crate::residual::applicable(x) {
             let p = cache.predict(model, x);
             let r = Residuals::from_prediction(model, x, &p);
-            acc.push(model, x, &p, &r);
+            acc.push(model, friction, x, &p, &r);
         }
     }
     out.extend(acc.finish(true));
@@ -1110,6 +1125,7 @@ pub(crate) mod tests {
         let mut out = Vec::new();
         let mut t = t0;
         let sigma = model.scales.sigma_u_v;
+        let friction = friction_reference(model);
         while t < t0 + days * 86_400.0 {
             t += rng.uniform(60.0, 400.0);
             let s = if rng.uniform(0.0, 1.0) < 0.5 {
@@ -1136,13 +1152,13 @@ pub(crate) mod tests {
                 let mut x = row(model, time, s * speed, lambda, s * acc_mag, 0.0);
                 x.phase = phase;
                 let p = model.predict(&x);
-                let sig = signature(model, &x, p.f_pred);
+                let sig = signature(model, friction, &x, p.f_pred);
                 let thermal =
                     0.03 * (2.0 * std::f64::consts::PI * time / 86_400.0).sin() * sig[MOTOR];
                 x.voltage += thermal + fault(time, &sig) + sigma * rng.normal();
                 let p = model.predict(&x);
                 let r = Residuals::from_prediction(model, &x, &p);
-                acc.push(model, &x, &p, &r);
+                acc.push(model, friction, &x, &p, &r);
             }
             out.extend(acc.finish(true));
             t += 20.0;

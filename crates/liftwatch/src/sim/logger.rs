@@ -22,59 +22,27 @@ use crate::rng::Rng;
 
 use super::TruthRow;
 
-/// The logged signals (DATA.md §1; the optional `current` is not simulated).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum Signal {
-    /// Car speed magnitude (m/s).
-    Speed,
-    /// Travel direction: 1 up, −1 down, 0 none.
-    Direction,
-    /// Motor voltage magnitude (V).
-    Voltage,
-    /// Load-weighing sensor (% of rated load).
-    Load,
-    /// Door: 1 open or moving, 0 closed.
-    Door,
-    /// Floor indicator, 1-based.
-    Floor,
-}
+pub use crate::ingest::Signal;
 
-impl Signal {
-    /// Every signal, in the order used by per-signal arrays and by the logger.
-    pub const ALL: [Signal; 6] = [
-        Signal::Speed,
-        Signal::Direction,
-        Signal::Voltage,
-        Signal::Load,
-        Signal::Door,
-        Signal::Floor,
-    ];
+/// The signals the simulator logs, in the order of its per-signal arrays (their
+/// [`Signal::index`]): every signal of DATA.md §1 but the optional `current`, which it does
+/// not simulate.
+pub const SIMULATED: [Signal; 6] = [
+    Signal::Speed,
+    Signal::Direction,
+    Signal::Voltage,
+    Signal::Load,
+    Signal::Door,
+    Signal::Floor,
+];
 
-    /// The signal's name in the raw file.
-    pub fn name(self) -> &'static str {
-        match self {
-            Signal::Speed => "speed",
-            Signal::Direction => "direction",
-            Signal::Voltage => "voltage",
-            Signal::Load => "load",
-            Signal::Door => "door",
-            Signal::Floor => "floor",
-        }
-    }
-
-    /// Index in [`Signal::ALL`].
-    pub fn index(self) -> usize {
-        self as usize
-    }
-
-    /// Decimals written for a value of this signal (enough for its quantisation step).
-    pub fn decimals(self) -> usize {
-        match self {
-            Signal::Speed => 3,
-            Signal::Voltage => 2,
-            Signal::Load => 1,
-            Signal::Direction | Signal::Door | Signal::Floor => 0,
-        }
+/// Decimals written for a value of `signal` (enough for its quantisation step).
+fn decimals(signal: Signal) -> usize {
+    match signal {
+        Signal::Speed => 3,
+        Signal::Voltage | Signal::Current => 2,
+        Signal::Load => 1,
+        Signal::Direction | Signal::Door | Signal::Floor => 0,
     }
 }
 
@@ -271,7 +239,7 @@ impl RawCsvWriter {
         self.line.push(b',');
         self.line.extend_from_slice(r.signal.name().as_bytes());
         self.line.push(b',');
-        push_fixed(&mut self.line, r.value, r.signal.decimals());
+        push_fixed(&mut self.line, r.value, decimals(r.signal));
         self.line.push(b'\n');
         self.out
             .write_all(&self.line)
@@ -516,7 +484,7 @@ mod tests {
         let mut l = RawLogger::new(Rng::new(4), 0.0);
         let mut out = Vec::new();
         for k in 0..300 {
-            for s in Signal::ALL {
+            for s in SIMULATED {
                 l.push(RawRow {
                     time: f64::from(k) + 0.1 * s.index() as f64,
                     signal: s,
@@ -537,7 +505,7 @@ mod tests {
         assert!(out.len() >= 1800);
         let mut max_back = 0.0f64;
         let mut latest = f64::NEG_INFINITY;
-        for s in Signal::ALL {
+        for s in SIMULATED {
             let times: Vec<f64> = out
                 .iter()
                 .filter(|r| r.signal == s)

@@ -76,7 +76,7 @@ use crate::model::physics::PhysParams;
 use crate::rng::Rng;
 use crate::sample::{AlignedSeries, Sample};
 
-pub use logger::{AlignedCsvWriter, RawCsvWriter, RawRow, Signal, ALIGNED_HEADER};
+pub use logger::{AlignedCsvWriter, RawCsvWriter, RawRow, Signal, ALIGNED_HEADER, SIMULATED};
 pub use motion::{Kinematics, SCurve};
 pub use plant::SimElevator;
 pub use scenario::{Effects, FaultMode, Ramp, Scenario, SensorFault};
@@ -735,7 +735,7 @@ impl<'a, S: SimSink> Engine<'a, S> {
     /// Emits, in time order, every raw sample and grid row before `b`.
     fn sample_until(&mut self, b: f64, m: Motion) -> Result<()> {
         loop {
-            let mut which = Signal::ALL.len();
+            let mut which = SIMULATED.len();
             let mut tmin = self.next_grid;
             for (k, c) in self.clocks.iter().enumerate() {
                 if c.next < tmin {
@@ -746,11 +746,11 @@ impl<'a, S: SimSink> Engine<'a, S> {
             if tmin >= b || tmin >= self.end {
                 return Ok(());
             }
-            if which == Signal::ALL.len() {
+            if which == SIMULATED.len() {
                 self.emit_grid(tmin, m)?;
                 self.next_grid += 1.0;
             } else {
-                let signal = Signal::ALL[which];
+                let signal = SIMULATED[which];
                 if !self.clocks[which].dropouts.silent(tmin) {
                     let mut rng = std::mem::replace(&mut self.noise_raw, Rng::new(0));
                     let value = self.reading(signal, tmin, m, &mut rng);
@@ -822,6 +822,8 @@ impl<'a, S: SimSink> Engine<'a, S> {
                 quant(l, sp.load_quant_pct)
             }
             Signal::Door => f64::from(u8::from(self.door)),
+            // Not simulated: SIMULATED never yields it.
+            Signal::Current => f64::NAN,
             Signal::Floor => {
                 let (x, _, _) = self.kin(m, ts);
                 let fl = &self.p.floor_positions_m;
@@ -842,7 +844,7 @@ impl<'a, S: SimSink> Engine<'a, S> {
     fn emit_grid(&mut self, t: f64, m: Motion) -> Result<()> {
         let mut rng = std::mem::replace(&mut self.noise_grid, Rng::new(0));
         let mut vals = [f64::NAN; 6];
-        for s in Signal::ALL {
+        for s in SIMULATED {
             let k = s.index();
             if !self.clocks[k].dropouts.silent(t) {
                 vals[k] = self.reading(s, t, m, &mut rng);

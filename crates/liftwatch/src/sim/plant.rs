@@ -59,7 +59,7 @@ pub struct SensorSpec {
     pub load_quant_pct: f64,
     /// Sampling-instant jitter, one sigma (s).
     pub jitter_s: f64,
-    /// Measurement latency per signal in [`super::logger::Signal::ALL`] order (s).
+    /// Measurement latency per signal in [`super::logger::SIMULATED`] order (s).
     pub latency_s: [f64; 6],
     /// Sampling-clock rate error per signal, parts per million.
     pub clock_ppm: [f64; 6],

@@ -404,16 +404,7 @@ fn write_dir_writes_the_four_files_with_the_contract_headers() {
     assert_eq!(e, elevator());
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.join("truth.json")).unwrap()).unwrap();
-    for k in [
-        "delta_m",
-        "m0",
-        "f_c",
-        "c_visc",
-        "kd",
-        "ke",
-        "u0",
-        "alpha_down",
-    ] {
+    for k in liftwatch::model::PhysParams::NAMES {
         assert!(json["parameters"][k].is_f64(), "{k}");
     }
     assert_eq!(json["scenario"]["mode"], "brake");

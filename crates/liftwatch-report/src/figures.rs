@@ -6,9 +6,13 @@
 
 use liftwatch::alarm::Level;
 use liftwatch::features::FeatureRow;
+use liftwatch::mode::FaultMode;
 use liftwatch::model::PhysParams;
 use liftwatch::residual::Residuals;
-use liftwatch::risk::{BRAKE, FRICTION, MOTOR};
+
+const MOTOR: usize = FaultMode::Motor as usize;
+const BRAKE: usize = FaultMode::Brake as usize;
+const FRICTION: usize = FaultMode::Friction as usize;
 
 use crate::plot::{
     colors::*, decimate, quantile, robust_range, Axis, Dash, Figure, Legend, Mark, Panel,
@@ -157,7 +161,7 @@ impl<'a> Ctx<'a> {
             .features
             .rows
             .iter()
-            .map(|r| Residuals::compute(inp.model, r))
+            .map(|r| Residuals::compute(&inp.model.hybrid, r))
             .collect();
         Ctx {
             inp,
@@ -528,7 +532,7 @@ fn acceleration(c: &Ctx, a: f64, b: f64) -> Section {
 }
 
 fn training(c: &Ctx) -> Section {
-    let fit = &c.inp.model.fit;
+    let fit = &c.inp.model.summary;
     let h = &fit.history;
     let it: Vec<f64> = h.iter().map(|p| p.iteration as f64).collect();
     let (x0, x1) = (
@@ -620,8 +624,8 @@ fn training(c: &Ctx) -> Section {
         fit.moving_samples,
         num(fit.rms_u_v),
         num(fit.rms_f_n),
-        num(c.inp.model.scales.sigma_u_v),
-        num(c.inp.model.scales.sigma_f_n),
+        num(c.inp.model.hybrid.scales.sigma_u_v),
+        num(c.inp.model.hybrid.scales.sigma_f_n),
     )];
     Section {
         figure: Figure {
@@ -637,14 +641,14 @@ fn training(c: &Ctx) -> Section {
 }
 
 fn parameters(c: &Ctx) -> Section {
-    let fit = &c.inp.model.fit;
+    let fit = &c.inp.model.summary;
     let h = &fit.history;
     let it: Vec<f64> = h.iter().map(|p| p.iteration as f64).collect();
     let (x0, x1) = (
         it.first().copied().unwrap_or(0.0),
         it.last().copied().unwrap_or(1.0).max(1.0),
     );
-    let final_theta = c.inp.model.parameters.to_array();
+    let final_theta = c.inp.model.hybrid.parameters.to_array();
     let mut panels = Vec::new();
     let mut rows_html = Vec::new();
     for (k, (&name, &unit)) in PhysParams::NAMES
@@ -755,7 +759,7 @@ fn fit(c: &Ctx) -> Section {
         .collect();
     let preds: Vec<_> = rows
         .iter()
-        .map(|r| liftwatch::residual::applicable(r).then(|| m.predict(r)))
+        .map(|r| liftwatch::residual::applicable(r).then(|| m.hybrid.predict(r)))
         .collect();
     let xs: Vec<f64> = rows.iter().map(|r| time.x(r.time)).collect();
     let u_meas: Vec<f64> = rows.iter().map(|r| r.voltage).collect();
@@ -848,7 +852,7 @@ fn fit(c: &Ctx) -> Section {
     };
     let ru: Vec<f64> = u_meas.iter().zip(&u_pred).map(|(m, p)| m - p).collect();
     let rf: Vec<f64> = f_pred.iter().zip(&f_u).map(|(p, u)| p - u).collect();
-    let sc = m.scales;
+    let sc = m.hybrid.scales;
     let res_panel = |title: &str, sym: &str, unit: &str, r: &[f64], sigma: f64, color| {
         let (lo, hi) = robust_range(r, 0.002, 0.998, &[-3.0 * sigma, 3.0 * sigma]);
         let mut p = Panel::new(
@@ -914,8 +918,8 @@ fn fit(c: &Ctx) -> Section {
         span_text(b - c.start),
         num(rms(&ru)),
         num(rms(&rf)),
-        num(m.fit.rms_u_v),
-        num(m.fit.rms_f_n),
+        num(m.summary.rms_u_v),
+        num(m.summary.rms_f_n),
     )];
     Section {
         figure: Figure {
@@ -981,7 +985,7 @@ fn trip_means(rows: &[FeatureRow], y: &[f64]) -> Vec<(f64, f64)> {
 fn residuals(c: &Ctx) -> Section {
     let rows = c.rows();
     let t: Vec<f64> = rows.iter().map(|r| r.time).collect();
-    let sc = c.inp.model.scales;
+    let sc = c.inp.model.hybrid.scales;
     let x = c.whole.axis(c.start, c.end);
     let mut panels = Vec::new();
     let mut drift = Vec::new();
@@ -1302,7 +1306,7 @@ fn risk(c: &Ctx) -> Section {
          per-mode threshold is the largest risk each mode reached in the healthy bootstrap of the fit (motor {}, brake {}, \
          friction {}); it attributes an episode to a mode.",
         num(cfg.gamma),
-        cfg.calibration.as_ref().map_or("The thresholds are the model file's settings.".to_string(), |k| format!(
+        c.inp.model.calibration.as_ref().map_or("The thresholds are the model file's settings.".to_string(), |k| format!(
             "The thresholds were calibrated on {} healthy trips ({} h), bootstrapped to {} simulated years, for a target of {} \
              false advisories per year (validated: {}).",
             k.trips,
@@ -1442,7 +1446,7 @@ fn comparison(c: &Ctx) -> Section {
         .first()
         .map(|t| activations.iter().filter(|a| *a < t).count());
     let persistent = longest_run(thr, c.step);
-    let lim = &cfg.baseline;
+    let lim = &c.inp.model.baseline;
     let mut text =
         vec![format!(
         "The conventional method judges each moving sample alone against fixed limits set at the fit (friction-force \

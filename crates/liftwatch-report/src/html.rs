@@ -30,7 +30,7 @@ nav a{margin-right:1em}figure{margin:1em 0}figcaption{font-size:.9em;color:#555}
 /// The page: title, data summary, a table of contents and one section per figure.
 pub(crate) fn page(inp: &ReportInputs, sections: &[Section]) -> String {
     let m = inp.model;
-    let e = &m.elevator;
+    let e = &m.hybrid.elevator;
     let mut h = String::new();
     h.push_str("<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n");
     h.push_str(&format!(
@@ -44,7 +44,7 @@ pub(crate) fn page(inp: &ReportInputs, sections: &[Section]) -> String {
     h.push_str(&format!(
         "<p class=\"meta\">Elevator: rated load {} kg, rated speed {} m/s, {} floors. Model format version {}, \
          fitted on {} moving samples. Each figure is also saved as PNG beside its SVG.</p>\n",
-        e.rated_load_kg, e.rated_speed_mps, e.floors, m.format_version, m.fit.moving_samples
+        e.rated_load_kg, e.rated_speed_mps, e.floors, liftwatch::file::FORMAT_VERSION, m.summary.moving_samples
     ));
     h.push_str("<nav>");
     for s in sections {

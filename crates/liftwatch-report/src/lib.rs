@@ -11,7 +11,7 @@
 //! # fn main() -> Result<(), Box<dyn std::error::Error>> {
 //! use liftwatch::align::{read_series, AlignConfig};
 //! use liftwatch_report::{write_report, Analysis};
-//! let model = liftwatch::model::file::load("model.json".as_ref())?;
+//! let model = liftwatch::file::load("model.json".as_ref())?;
 //! let (series, _) = read_series("data.csv".as_ref(), &AlignConfig::default())?;
 //! let analysis = Analysis::run(&model, &series); // features, both monitors, events
 //! let files = write_report("report".as_ref(), &analysis.inputs(&model, &series, "data.csv"))?;
@@ -47,7 +47,7 @@ use std::path::{Path, PathBuf};
 
 use liftwatch::alarm::Event;
 use liftwatch::features::Features;
-use liftwatch::model::FittedModel;
+use liftwatch::fit::FittedModel;
 use liftwatch::monitor::{Method, Monitor, MonitorRow};
 use liftwatch::AlignedSeries;
 
@@ -237,7 +237,7 @@ mod tests {
             epochs: 60,
             ..TrainConfig::default()
         };
-        let model = liftwatch::model::fit(&series, &elevator, &cfg, &mut |_| {})
+        let model = liftwatch::fit::fit(&series, &elevator, &cfg, &mut |_| {})
             .expect("0.4 simulated days fit")
             .model;
         let analysis = Analysis::run(&model, &series);

@@ -11,11 +11,10 @@ use std::hint::black_box;
 use std::time::Instant;
 
 use liftwatch::features::{FeatureConfig, FeatureTracker};
-use liftwatch::model::train::{FitSummary, TrainConfig};
-use liftwatch::model::{FittedModel, PhysParams, ResidualNet, ResidualScales, FORMAT_VERSION};
+use liftwatch::fit::FittedModel;
+use liftwatch::model::{HybridModel, PhysParams, ResidualNet, ResidualScales};
 use liftwatch::monitor::{Method, Monitor};
 use liftwatch::residual::PredictionCache;
-use liftwatch::risk::RiskConfig;
 use liftwatch::rng::Rng;
 use liftwatch::sim::{simulate, SimConfig};
 use liftwatch::{Elevator, Sample};
@@ -28,20 +27,16 @@ fn model(elevator: &Elevator) -> FittedModel {
     for w in &mut net.weights {
         *w = rng.uniform(-0.5, 0.5);
     }
-    FittedModel {
-        format_version: FORMAT_VERSION,
+    let hybrid = HybridModel {
         parameters: PhysParams::prior_centre(elevator),
         net,
         scales: ResidualScales {
             sigma_u_v: 2.5,
             sigma_f_n: 400.0,
         },
-        features: FeatureConfig::for_elevator(elevator),
-        risk: RiskConfig::default(),
-        train: TrainConfig::default(),
-        fit: FitSummary::default(),
         elevator: elevator.clone(),
-    }
+    };
+    FittedModel::uncalibrated(hybrid, FeatureConfig::for_elevator(elevator))
 }
 
 /// Median of three timed runs of `f`, in seconds.
@@ -112,7 +107,7 @@ fn main() {
             let mut cache = PredictionCache::default();
             let mut acc = 0.0;
             for r in rows.iter() {
-                let e = cache.residuals(&model, r).r_u;
+                let e = cache.residuals(&model.hybrid, r).r_u;
                 if e.is_finite() {
                     acc += e;
                 }

@@ -4,7 +4,8 @@
 //! Run: `cargo run --release -p liftwatch --example simulate_fit_monitor`
 
 use liftwatch::alarm::{FaultMode, Level};
-use liftwatch::model::{self, TrainConfig};
+use liftwatch::fit;
+use liftwatch::model::TrainConfig;
 use liftwatch::monitor::{Method, Monitor};
 use liftwatch::rng::Rng;
 use liftwatch::sim::plant::SimElevator;
@@ -20,7 +21,7 @@ fn main() -> Result<(), liftwatch::Error> {
     let mut train = SimConfig::new(elevator.clone(), 2.0, 30);
     train.plant = Some(plant.clone());
     let healthy = simulate(&train)?.aligned();
-    let fit = model::fit(
+    let fit = fit::fit(
         &healthy,
         &elevator,
         &TrainConfig {
@@ -29,10 +30,10 @@ fn main() -> Result<(), liftwatch::Error> {
         },
         &mut |_| {},
     )?;
-    let kd = fit.model.parameters.kd;
+    let kd = fit.model.hybrid.parameters.kd;
     println!(
         "fitted: Kd = {kd:.5} V/N, σ_U = {:.2} V",
-        fit.model.scales.sigma_u_v
+        fit.model.hybrid.scales.sigma_u_v
     );
 
     // Watch: a week in which Kd steps up by 20 % on day 2.

@@ -13,8 +13,13 @@
 //! The hysteresis band keeps a level from flickering while R hovers at a threshold: R decays
 //! by γ per trip, so leaving a level takes a sustained return to healthy behaviour.
 //!
+//! Episodes: an episode is a stretch above `normal`. It takes its mode when it opens (`sensor`
+//! when only the sensor override raised it), is named later when it opened as `unknown` and one
+//! mode comes to dominate, and is named again on escalation; each of these is an event
+//! ([`update_episode`]).
+//!
 //! Deviation from the paper: the paper leaves the warning rule open; here the thresholds are
-//! calibrated to a stated false-alarm rate (see [`crate::risk::RiskConfig::calibrate`]).
+//! calibrated to a stated false-alarm rate (see [`crate::calibrate`]).
 //!
 //! Acknowledgement: accumulated evidence is never reset by hand. After an inspection or a
 //! repair the operator refits on fresh healthy data; the new model file carries a new
@@ -24,7 +29,13 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::risk::{RiskConfig, TripAssessment, BRAKE, FRICTION, MOTOR, N_MODES};
+use crate::mode::{MACHINE_MODES, N_MODES};
+use crate::risk::{RiskConfig, TripAssessment};
+
+// Indices of the per-mode arrays, in the order of `MACHINE_MODES`.
+const MOTOR: usize = FaultMode::Motor as usize;
+const BRAKE: usize = FaultMode::Brake as usize;
+const FRICTION: usize = FaultMode::Friction as usize;
 
 /// Health level of the elevator (DATA.md §4).
 #[derive(
@@ -58,34 +69,7 @@ impl std::fmt::Display for Level {
     }
 }
 
-/// What the evidence points at (DATA.md §4).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum FaultMode {
-    /// Drive degradation: Kd up, a load-proportional voltage rise.
-    Motor,
-    /// Brake drag: a voltage rise going down or decelerating only.
-    Brake,
-    /// Guide-rail or lubrication degradation: more force in both directions.
-    Friction,
-    /// The data, not the machine, look wrong.
-    Sensor,
-    /// No mode clearly dominates.
-    Unknown,
-}
-
-impl FaultMode {
-    /// The name written in JSON.
-    pub fn as_str(self) -> &'static str {
-        match self {
-            FaultMode::Motor => "motor",
-            FaultMode::Brake => "brake",
-            FaultMode::Friction => "friction",
-            FaultMode::Sensor => "sensor",
-            FaultMode::Unknown => "unknown",
-        }
-    }
-}
+pub use crate::mode::FaultMode;
 
 /// The evidence behind an event, written beside the DATA.md §4 fields.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -216,17 +200,56 @@ pub fn attribute(risk_modes: &[f64; N_MODES], cfg: &RiskConfig) -> FaultMode {
     let q: Vec<f64> = (0..N_MODES)
         .map(|m| risk_modes[m] / cfg.advisory_modes[m].max(f64::MIN_POSITIVE))
         .collect();
-    let mut order = [MOTOR, BRAKE, FRICTION];
-    order.sort_by(|a, b| q[*b].total_cmp(&q[*a]));
-    let (best, second) = (q[order[0]], q[order[1]]);
+    let mut order = MACHINE_MODES;
+    order.sort_by(|a, b| q[*b as usize].total_cmp(&q[*a as usize]));
+    let (best, second) = (q[order[0] as usize], q[order[1] as usize]);
     if best.is_nan() || best < MIN_SCALED_RISK || best < cfg.dominance * second {
         return FaultMode::Unknown;
     }
-    match order[0] {
-        MOTOR => FaultMode::Motor,
-        BRAKE => FaultMode::Brake,
-        _ => FaultMode::Friction,
+    order[0]
+}
+
+/// Moves the mode of the open episode for a sample whose level went from `before` to
+/// `state.level()`; returns true when the sample is an event: a change of level, or an episode
+/// opened as `unknown` that now gets its mode (at the same level).
+///
+/// The trip-level lens reacts within tens of trips, the re-identification that names the mode
+/// within a few hundred, so an advisory may first say `unknown` and then name the mode.
+pub fn update_episode(
+    mode: &mut FaultMode,
+    before: Level,
+    state: &AlarmState,
+    risk_modes: &[f64; N_MODES],
+    cfg: &RiskConfig,
+) -> bool {
+    let level = state.level();
+    let named = level == before
+        && level > Level::Normal
+        && *mode == FaultMode::Unknown
+        && attribute(risk_modes, cfg) != FaultMode::Unknown;
+    if named {
+        *mode = attribute(risk_modes, cfg);
+        return true;
     }
+    if level == before {
+        return false;
+    }
+    if before == Level::Normal {
+        let m = attribute(risk_modes, cfg);
+        let sensor_only = state.machine_level() == Level::Normal;
+        *mode = if sensor_only || (state.sensor() && m == FaultMode::Unknown) {
+            FaultMode::Sensor
+        } else {
+            m
+        };
+    } else if level > before {
+        // Escalation names the mode again: more evidence may have made it clear.
+        let m = attribute(risk_modes, cfg);
+        if m != FaultMode::Unknown {
+            *mode = m;
+        }
+    }
+    true
 }
 
 #[cfg(test)]

@@ -20,10 +20,10 @@ use crate::alarm::{Event, Evidence, FaultMode, Level};
 use crate::elevator::G;
 use crate::error::{Error, Result};
 use crate::features::FeatureRow;
-use crate::model::FittedModel;
+use crate::model::{HybridModel, PhysParams};
 
 /// Limits of the fixed-threshold method, set once from the healthy fit; stored in the model
-/// file inside [`crate::risk::RiskConfig`].
+/// file (under `risk.baseline`, see [`crate::file`]).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct BaselineLimits {
     /// Limit of the friction-force estimate (N); `f64::MAX` until calibrated.
@@ -47,14 +47,14 @@ impl Default for BaselineLimits {
 impl BaselineLimits {
     /// The two instantaneous signals of one sample: (friction-force estimate N, voltage above
     /// the motor line V); NaN while not moving or not measurable.
-    pub fn signals(model: &FittedModel, x: &FeatureRow) -> (f64, f64) {
+    pub fn signals(model: &HybridModel, x: &FeatureRow) -> (f64, f64) {
         if x.s == 0 || !crate::residual::applicable(x) {
             return (f64::NAN, f64::NAN);
         }
         let p = &model.parameters;
         let m_r = model.elevator.rated_load_kg;
         let f_u = p.force_from_voltage(x.s, x.v, x.voltage);
-        let q = crate::model::PhysParams::relative_height(x.floor, model.elevator.floors);
+        let q = PhysParams::relative_height(x.floor, model.elevator.floors);
         let inertia_and_weight =
             (p.m0 + x.lambda * m_r) * x.a + (p.delta_m + x.lambda * m_r + p.m_rope * q) * G;
         let friction = f64::from(x.s) * (f_u - inertia_and_weight);
@@ -69,7 +69,7 @@ impl BaselineLimits {
     /// [`Error::InvalidConfig`] for a negative margin; [`Error::Unidentifiable`] with fewer
     /// than 1000 healthy moving samples (a 99.9th percentile needs them).
     pub fn calibrate(
-        model: &FittedModel,
+        model: &HybridModel,
         rows: &[FeatureRow],
         margin_frac: f64,
     ) -> Result<BaselineLimits> {
@@ -128,9 +128,13 @@ pub struct Baseline {
 }
 
 impl Baseline {
-    /// Judges one sample against the fixed limits.
-    pub fn push(&mut self, model: &FittedModel, x: &FeatureRow) -> BaselineVerdict {
-        let lim = &model.risk.baseline;
+    /// Judges one sample against the fixed limits `lim` of `model`.
+    pub fn push(
+        &mut self,
+        model: &HybridModel,
+        lim: &BaselineLimits,
+        x: &FeatureRow,
+    ) -> BaselineVerdict {
         let (friction, above_line) = BaselineLimits::signals(model, x);
         let motor = above_line > lim.voltage_limit_v;
         let fric = friction > lim.friction_limit_n;
@@ -183,7 +187,7 @@ mod tests {
     /// Trips at 1 Hz with noisy voltage and a noisy acceleration estimate, friction raised by
     /// `fric(t)` (fraction of the healthy friction force).
     fn trips(
-        model: &FittedModel,
+        model: &HybridModel,
         seed: u64,
         n_trips: usize,
         fric: &dyn Fn(usize) -> f64,
@@ -218,9 +222,9 @@ mod tests {
 
     #[test]
     fn baseline_flickers_on_a_noisy_ramp() {
-        let mut m = test_model();
+        let m = test_model();
         let healthy: Vec<FeatureRow> = trips(&m, 1, 400, &|_| 0.0).concat();
-        m.risk.baseline = BaselineLimits::calibrate(&m, &healthy, 0.25).unwrap();
+        let lim = BaselineLimits::calibrate(&m, &healthy, 0.25).unwrap();
         // Friction rises linearly to +100 % over 2000 trips.
         let n = 2000;
         let ramp: Vec<Vec<FeatureRow>> = trips(&m, 2, n, &|k| k as f64 / n as f64);
@@ -230,7 +234,7 @@ mod tests {
         for (k, trip) in ramp.iter().enumerate() {
             let mut any = false;
             for x in trip {
-                let v = b.push(&m, x);
+                let v = b.push(&m, &lim, x);
                 any |= v.level == Level::Alarm;
             }
             alarm_trips.push(any);

@@ -57,7 +57,8 @@ use serde::Serialize;
 use crate::alarm::{Event, FaultMode as Named, Level};
 use crate::elevator::Elevator;
 use crate::error::{Error, Result};
-use crate::model::{fit, FittedModel, TrainConfig};
+use crate::fit::{fit, FittedModel};
+use crate::model::TrainConfig;
 use crate::monitor::{Method, Monitor, MonitorRow};
 use crate::rng::Rng;
 use crate::sim::{
@@ -442,7 +443,7 @@ impl TripSegmenter {
 /// Mean trip residuals r_U/σ_U of a healthy series monitored with `model`.
 pub fn healthy_trip_means(model: &FittedModel, series: &crate::sample::AlignedSeries) -> Vec<f64> {
     let mut m = Monitor::new(model, Method::Pinn);
-    let mut seg = TripSegmenter::new(model.scales.sigma_u_v);
+    let mut seg = TripSegmenter::new(model.hybrid.scales.sigma_u_v);
     let mut out = Vec::new();
     for x in &series.samples {
         if let Some(r) = m.push(x) {
@@ -861,7 +862,7 @@ pub fn run_case(
 ) -> Result<CaseResult> {
     let clock = Instant::now();
     let mut sc = SimConfig::new(
-        trained.model.elevator.clone(),
+        trained.model.hybrid.elevator.clone(),
         case.days,
         derive_seed(cfg.seed, case.elevator, 100 + index as u64),
     );
@@ -872,8 +873,8 @@ pub fn run_case(
     let mut sink = CaseSink {
         pinn: Monitor::new(model, Method::Pinn),
         thr: Monitor::new(model, Method::Threshold),
-        seg_pinn: TripSegmenter::new(model.scales.sigma_u_v),
-        seg_thr: TripSegmenter::new(model.scales.sigma_u_v),
+        seg_pinn: TripSegmenter::new(model.hybrid.scales.sigma_u_v),
+        seg_thr: TripSegmenter::new(model.hybrid.scales.sigma_u_v),
         trips: Vec::new(),
         thr_trips: Vec::new(),
         events: Vec::new(),
@@ -1207,10 +1208,10 @@ pub fn run_suite(cfg: &SuiteConfig, progress: &(dyn Fn(&str) + Sync)) -> Result<
             fleet: fe.clone(),
             charts: t.charts.clone(),
             advisory_threshold: t.model.risk.advisory,
-            sigma_u_v: t.model.scales.sigma_u_v,
+            sigma_u_v: t.model.hybrid.scales.sigma_u_v,
             threshold_limits: (
-                t.model.risk.baseline.voltage_limit_v,
-                t.model.risk.baseline.friction_limit_n,
+                t.model.baseline.voltage_limit_v,
+                t.model.baseline.friction_limit_n,
             ),
             seconds: secs,
         });

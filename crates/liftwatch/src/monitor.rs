@@ -35,14 +35,21 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use crate::alarm::{attribute, AlarmState, Event, Evidence, FaultMode, Level};
+use crate::alarm::{update_episode, AlarmState, Event, Evidence, FaultMode, Level};
 use crate::baseline::Baseline;
 use crate::error::{Error, Result};
 use crate::features::{FeatureRow, FeatureTracker, Trip};
-use crate::model::FittedModel;
+use crate::fit::FittedModel;
+use crate::output::write_atomic;
 use crate::residual::{PredictionCache, Residuals};
-use crate::risk::{exact, RiskTracker, TripAccumulator, BRAKE, FRICTION, MOTOR};
+use crate::risk::{friction_reference, RiskTracker, TripAccumulator};
 use crate::sample::Sample;
+use crate::sensor::SensorCheck;
+
+// Indices of the per-mode arrays, in the order of `crate::mode::MACHINE_MODES`.
+const MOTOR: usize = FaultMode::Motor as usize;
+const BRAKE: usize = FaultMode::Brake as usize;
+const FRICTION: usize = FaultMode::Friction as usize;
 
 /// Version of the monitor state document.
 pub const STATE_VERSION: u32 = 1;
@@ -107,6 +114,20 @@ pub struct MonitorRow {
     pub friction_drift_pct: f64,
     /// Extra column: re-identified brake drag (N).
     pub brake_drag_n: f64,
+}
+
+/// Runs the streaming monitor of `method` over a whole series with no saved state: one row
+/// per sample, in order. The batch form of [`Monitor::push`] that the CLI, the report, the demo
+/// and the evaluation share.
+pub fn run<'a>(
+    model: &FittedModel,
+    samples: impl IntoIterator<Item = &'a Sample>,
+    method: Method,
+) -> Vec<MonitorRow> {
+    let mut m = Monitor::new(model, method);
+    let mut rows: Vec<MonitorRow> = samples.into_iter().filter_map(|s| m.push(s)).collect();
+    rows.extend(m.finish());
+    rows
 }
 
 /// Writes monitor rows as CSV with [`CSV_HEADER`]; empty fields for `NaN`.
@@ -179,151 +200,6 @@ pub fn model_fingerprint(model: &FittedModel) -> String {
     format!("{h:016x}")
 }
 
-/// Sensor plausibility from raw samples and completed trips.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-struct SensorCheck {
-    /// Last time each channel (speed, direction, voltage, load, door, floor) had a value.
-    #[serde(with = "exact::array")]
-    last_seen: [f64; 6],
-    /// A channel has been missing longer than the limit while others report.
-    missing: bool,
-    /// A load reading out of range since the last completed trip.
-    load_out_of_range: bool,
-    /// Door state of the previous sample (NaN unknown) and the load at the last door close.
-    #[serde(with = "exact")]
-    door: f64,
-    #[serde(with = "exact")]
-    close_load: f64,
-    /// Consecutive door cycles with a bit-identical load reading.
-    stuck_cycles: u32,
-    /// Index and arrival floor of the last reported trip.
-    last_trip: Option<(u32, StateF64)>,
-    /// Exponential average of the implausible flag over trips and standstill floor changes.
-    #[serde(with = "exact")]
-    score: f64,
-    /// Since when the speed has been above the motion threshold (NaN when it is not).
-    #[serde(with = "exact")]
-    moving_since: f64,
-    /// Since when the speed has been at or below it (NaN when it is not).
-    #[serde(with = "exact")]
-    still_since: f64,
-    /// Last floor indicator value seen.
-    #[serde(with = "exact")]
-    floor: f64,
-}
-
-/// An f64 that serialises exactly, for tuples.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-struct StateF64(#[serde(with = "exact")] f64);
-
-impl SensorCheck {
-    fn new() -> Self {
-        SensorCheck {
-            last_seen: [f64::NAN; 6],
-            missing: false,
-            load_out_of_range: false,
-            door: f64::NAN,
-            close_load: f64::NAN,
-            stuck_cycles: 0,
-            last_trip: None,
-            score: 0.0,
-            moving_since: f64::NAN,
-            still_since: f64::NAN,
-            floor: f64::NAN,
-        }
-    }
-
-    /// Counts one implausible or plausible observation into the score.
-    fn observe(&mut self, plausible: bool) {
-        self.score = 0.9 * self.score + 0.1 * f64::from(u8::from(!plausible));
-    }
-
-    /// Looks at one raw sample; `thr` is the motion threshold (m/s).
-    fn sample(&mut self, x: &Sample, cfg: &crate::risk::SensorLimits, thr: f64) {
-        if x.speed.is_finite() {
-            if x.speed > thr {
-                self.still_since = f64::NAN;
-                if self.moving_since.is_nan() {
-                    self.moving_since = x.time;
-                }
-            } else {
-                self.moving_since = f64::NAN;
-                if self.still_since.is_nan() {
-                    self.still_since = x.time;
-                }
-            }
-        } else {
-            // A dropout of the speed signal is a gap, not a stuck reading.
-            self.moving_since = f64::NAN;
-            self.still_since = f64::NAN;
-        }
-        if x.floor.is_finite() {
-            // The indicator may settle a few seconds after the car stops; a change after 10 s
-            // of standstill is a floor change without speed (a stuck or dead speed signal).
-            if self.floor.is_finite() && x.floor != self.floor && x.time - self.still_since > 10.0 {
-                self.observe(false);
-            }
-            self.floor = x.floor;
-        }
-        let ch = [x.speed, x.direction, x.voltage, x.load, x.door, x.floor];
-        let any = ch.iter().any(|v| v.is_finite());
-        let mut missing = false;
-        for (seen, v) in self.last_seen.iter_mut().zip(ch) {
-            if v.is_finite() || seen.is_nan() {
-                *seen = x.time;
-            } else if any && x.time - *seen >= cfg.missing_limit_s {
-                missing = true;
-            }
-        }
-        // A gap of every channel is the logger's, not a sensor's: it neither sets nor clears.
-        if any {
-            self.missing = missing;
-        }
-        if x.load.is_finite() && !(cfg.min_load_pct..=cfg.max_load_pct).contains(&x.load) {
-            self.load_out_of_range = true;
-        }
-        if x.door.is_finite() {
-            let closing = self.door > 0.5 && x.door < 0.5;
-            if closing && x.load.is_finite() {
-                if x.load.to_bits() == self.close_load.to_bits() {
-                    self.stuck_cycles = self.stuck_cycles.saturating_add(1);
-                } else {
-                    self.stuck_cycles = 0;
-                }
-                self.close_load = x.load;
-            }
-            self.door = x.door;
-        }
-    }
-
-    /// True while a condition independent of trips says a sensor is broken.
-    fn channel_fault(&self, cfg: &crate::risk::SensorLimits, time: f64) -> bool {
-        let speed_stuck = time - self.moving_since > cfg.max_trip_s;
-        self.missing || speed_stuck || self.stuck_cycles >= cfg.stuck_load_cycles
-    }
-
-    /// Judges a completed trip: true when it is plausible machine evidence.
-    fn trip(&mut self, t: &Trip, cfg: &crate::risk::SensorLimits, floor_height: f64) -> bool {
-        let mut ok = !std::mem::take(&mut self.load_out_of_range);
-        ok &= t.end_time - t.start_time <= cfg.max_trip_s;
-        let floors_known = t.from_floor.is_finite() && t.to_floor.is_finite();
-        if floors_known
-            && t.peak_speed >= cfg.floor_change_speed_mps
-            && t.distance_m >= 0.7 * floor_height
-        {
-            ok &= t.from_floor != t.to_floor;
-        }
-        if let Some((index, StateF64(to))) = self.last_trip {
-            if index.wrapping_add(1) == t.index && to.is_finite() && t.from_floor.is_finite() {
-                ok &= to == t.from_floor;
-            }
-        }
-        self.last_trip = Some((t.index, StateF64(t.to_floor)));
-        self.observe(ok);
-        ok
-    }
-}
-
 /// Everything a monitor carries from one sample to the next; a few KiB as JSON.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct MonitorState {
@@ -374,16 +250,14 @@ impl MonitorState {
         serde_json::from_value(v).map_err(|e| bad(e.to_string()))
     }
 
-    /// Writes the state atomically (temporary file, then rename).
+    /// Writes the state atomically and durably ([`write_atomic`]).
     ///
     /// # Errors
     /// [`Error::Io`] when the file cannot be written.
     pub fn save(&self, path: &Path) -> Result<()> {
         let json =
             serde_json::to_vec(self).expect("a state of numbers and names always serialises");
-        let tmp = path.with_extension("tmp");
-        std::fs::write(&tmp, json).map_err(|e| Error::io(&tmp, e))?;
-        std::fs::rename(&tmp, path).map_err(|e| Error::io(path, e))
+        write_atomic(path, &json)
     }
 
     /// The current level.
@@ -397,7 +271,7 @@ impl MonitorState {
 #[derive(Clone, Debug)]
 pub struct Monitor {
     model: FittedModel,
-    /// [`crate::risk::friction_reference`] of the model, computed once.
+    /// [`friction_reference`] of the model, computed once.
     friction: (f64, f64),
     cache: PredictionCache,
     st: MonitorState,
@@ -425,7 +299,7 @@ impl Monitor {
         };
         Monitor {
             model: model.clone(),
-            friction: crate::risk::friction_reference(model),
+            friction: friction_reference(&model.hybrid),
             cache: PredictionCache::default(),
             st,
         }
@@ -451,7 +325,7 @@ impl Monitor {
         }
         Ok(Monitor {
             model: model.clone(),
-            friction: crate::risk::friction_reference(model),
+            friction: friction_reference(&model.hybrid),
             cache: PredictionCache::default(),
             st: state,
         })
@@ -473,7 +347,7 @@ impl Monitor {
         self.st.samples += 1;
         self.st.sensor.sample(
             x,
-            &self.model.risk.sensor,
+            &self.model.sensor,
             self.model.features.moving_threshold_mps,
         );
         let row = self.st.features.push(x)?;
@@ -503,7 +377,7 @@ impl Monitor {
 
     /// Residuals, trip bookkeeping, risk and level for one feature row.
     fn step(&mut self, x: &FeatureRow, ended: Option<Trip>) -> MonitorRow {
-        let model = &self.model;
+        let model = &self.model.hybrid;
         let st = &mut self.st;
         let (res, pred) = if crate::residual::applicable(x) {
             let p = self.cache.predict(model, x);
@@ -524,12 +398,10 @@ impl Monitor {
         }
         let st = &mut self.st;
         let before = st.alarm.level();
-        let limits = &self.model.risk.sensor;
-        let fault = st.sensor.channel_fault(limits, x.time)
-            || st.sensor.score >= limits.implausible_fraction;
-        // Released only at half the fraction: the same hysteresis as the machine levels.
-        let release = st.alarm.sensor() && st.sensor.score >= 0.5 * limits.implausible_fraction;
-        st.alarm.set_sensor(fault || release);
+        let sensor = st
+            .sensor
+            .verdict(&self.model.sensor, x.time, st.alarm.sensor());
+        st.alarm.set_sensor(sensor);
         match st.method {
             Method::Pinn => self.pinn_row(x, &res, before),
             Method::Threshold => self.threshold_row(x, &res),
@@ -542,8 +414,8 @@ impl Monitor {
         st.trips += 1;
         let plausible = st.sensor.trip(
             t,
-            &self.model.risk.sensor,
-            self.model.elevator.floor_height(),
+            &self.model.sensor,
+            self.model.hybrid.elevator.floor_height(),
         );
         if st.open_trip != Some(t.index) {
             return;
@@ -567,33 +439,7 @@ impl Monitor {
         st.alarm.update_machine(a.risk, cfg);
         let level = st.alarm.level();
         let mut event = None;
-        // An episode opened as `unknown` (trip-level evidence first: the regression needs more
-        // trips to move) is named as soon as one mode dominates; that is an event too.
-        let named = level == before
-            && level > Level::Normal
-            && st.episode_mode == FaultMode::Unknown
-            && attribute(&a.risk_modes, cfg) != FaultMode::Unknown;
-        if named {
-            st.episode_mode = attribute(&a.risk_modes, cfg);
-        }
-        if level != before || named {
-            if named {
-                // Named above, at the same level.
-            } else if before == Level::Normal {
-                let m = attribute(&a.risk_modes, cfg);
-                let sensor_only = st.alarm.machine_level() == Level::Normal;
-                st.episode_mode = if sensor_only || (st.alarm.sensor() && m == FaultMode::Unknown) {
-                    FaultMode::Sensor
-                } else {
-                    m
-                };
-            } else if level > before {
-                // Escalation names the mode again: more evidence may have made it clear.
-                let m = attribute(&a.risk_modes, cfg);
-                if m != FaultMode::Unknown {
-                    st.episode_mode = m;
-                }
-            }
+        if update_episode(&mut st.episode_mode, before, &st.alarm, &a.risk_modes, cfg) {
             let evidence =
                 Evidence::from_assessment(&a, self.friction.0, st.risk.trips, st.implausible_trips);
             event = Some(Event {
@@ -623,7 +469,10 @@ impl Monitor {
     }
 
     fn threshold_row(&mut self, x: &FeatureRow, res: &Residuals) -> MonitorRow {
-        let v = self.st.baseline.push(&self.model, x);
+        let v = self
+            .st
+            .baseline
+            .push(&self.model.hybrid, &self.model.baseline, x);
         if v.event.is_some() {
             self.st.events += 1;
         }
@@ -649,8 +498,13 @@ impl Monitor {
 mod tests {
     use super::*;
     use crate::elevator::Elevator;
-    use crate::residual::tests::test_model;
+    use crate::residual::tests::{test_features, test_model as test_hybrid};
     use crate::sim::{simulate, SensorFault, SimConfig};
+
+    /// The unit-test hybrid model with uncalibrated later stages.
+    fn test_model() -> FittedModel {
+        FittedModel::uncalibrated(test_hybrid(), test_features())
+    }
 
     fn samples(days: f64, seed: u64, fault: Option<SensorFault>) -> Vec<Sample> {
         let mut cfg = SimConfig::new(Elevator::new(1000.0, 1.75, 26), days, seed);
@@ -670,10 +524,7 @@ mod tests {
     }
 
     fn run_all(model: &FittedModel, method: Method, xs: &[Sample]) -> Vec<MonitorRow> {
-        let mut m = Monitor::new(model, method);
-        let mut rows: Vec<MonitorRow> = xs.iter().filter_map(|x| m.push(x)).collect();
-        rows.extend(m.finish());
-        rows
+        run(model, xs, method)
     }
 
     #[test]
@@ -720,7 +571,7 @@ mod tests {
     fn a_state_from_another_model_is_refused() {
         let model = test_model();
         let mut other = test_model();
-        other.parameters.kd *= 1.01;
+        other.hybrid.parameters.kd *= 1.01;
         let state = Monitor::new(&model, Method::Pinn).state();
         assert!(matches!(
             Monitor::resume(&other, state.clone()),

@@ -25,7 +25,7 @@
 
 use crate::features::FeatureRow;
 use crate::model::net::{N_HID, N_IN, N_OUT, N_WEIGHTS};
-use crate::model::{FittedModel, Prediction, ResidualNet};
+use crate::model::{HybridModel, Prediction, ResidualNet};
 
 /// The dual residuals of one sample. `NaN` marks a residual that is not applicable.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -54,12 +54,12 @@ impl Residuals {
 
     /// The residuals of `x` with `model` (one forward pass of the network, inputs as
     /// [`net_inputs`]).
-    pub fn compute(model: &FittedModel, x: &FeatureRow) -> Residuals {
+    pub fn compute(model: &HybridModel, x: &FeatureRow) -> Residuals {
         PredictionCache::default().residuals(model, x)
     }
 
     /// The residuals of `x` from a prediction already made for it.
-    pub fn from_prediction(model: &FittedModel, x: &FeatureRow, p: &Prediction) -> Residuals {
+    pub fn from_prediction(model: &HybridModel, x: &FeatureRow, p: &Prediction) -> Residuals {
         if !applicable(x) {
             return Residuals::MISSING;
         }
@@ -109,7 +109,7 @@ pub fn applicable(x: &FeatureRow) -> bool {
 /// and the correction is evaluated at rest. The physics keep the measured v (its Ke·|v| term
 /// is not negligible), only the network's inputs are pinned, so that consecutive standstill
 /// samples share one forward pass per λ ([`PredictionCache`]). The fit uses the same inputs
-/// through [`FittedModel::predict`] only when it pins them too; the difference is a network
+/// through [`HybridModel::predict`] only when it pins them too; the difference is a network
 /// evaluated a few mm/s from rest, far below σ_U.
 pub fn net_inputs(x: &FeatureRow) -> (f64, f64, f64) {
     if x.s == 0 {
@@ -179,26 +179,18 @@ pub struct PredictionCache {
 
 impl PredictionCache {
     /// The prediction for `x`, reusing the network output when its inputs equal the last call's.
-    pub fn predict(&mut self, model: &FittedModel, x: &FeatureRow) -> Prediction {
+    pub fn predict(&mut self, model: &HybridModel, x: &FeatureRow) -> Prediction {
         let (v, lambda, a) = net_inputs(x);
         let key = [v.to_bits(), lambda.to_bits(), a.to_bits()];
         if self.key != Some(key) {
             let [du, df] = forward(&model.net, v, lambda, a);
             (self.key, self.du, self.df) = (Some(key), du, df);
         }
-        let p = &model.parameters;
-        let m_r = model.elevator.rated_load_kg;
-        let q = crate::model::PhysParams::relative_height(x.floor, model.elevator.floors);
-        let f_phys = p.force(x.s, x.v, x.lambda, x.a, q, m_r);
-        Prediction {
-            u_pred: p.voltage(x.s, x.v, f_phys) + self.du,
-            f_pred: f_phys + self.df,
-            f_u: p.force_from_voltage(x.s, x.v, x.voltage),
-        }
+        model.predict_with(x, [self.du, self.df])
     }
 
     /// The residuals of `x`, through the memo.
-    pub fn residuals(&mut self, model: &FittedModel, x: &FeatureRow) -> Residuals {
+    pub fn residuals(&mut self, model: &HybridModel, x: &FeatureRow) -> Residuals {
         if !applicable(x) {
             return Residuals::MISSING;
         }
@@ -212,37 +204,36 @@ pub(crate) mod tests {
     use super::*;
     use crate::elevator::Elevator;
     use crate::features::{FeatureConfig, Phase};
-    use crate::model::{PhysParams, ResidualNet, ResidualScales, FORMAT_VERSION};
-    use crate::risk::RiskConfig;
+    use crate::model::{PhysParams, ResidualNet, ResidualScales};
 
     /// A model with prior-centre physics and a zero network, for unit tests of later stages.
-    pub(crate) fn test_model() -> FittedModel {
+    pub(crate) fn test_model() -> HybridModel {
         let elevator = Elevator::new(1000.0, 1.75, 26);
-        FittedModel {
-            format_version: FORMAT_VERSION,
+        HybridModel {
             parameters: PhysParams::prior_centre(&elevator),
             net: ResidualNet::new(1, [1.75, 1.0, 1.0], [5.0, 500.0]),
             scales: ResidualScales {
                 sigma_u_v: 1.5,
                 sigma_f_n: 300.0,
             },
-            features: FeatureConfig {
-                rated_load_kg: 1000.0,
-                moving_threshold_mps: 0.05,
-                load_cell_platform_ratio: 0.3,
-                beta_transient: 0.7,
-                beta_cruise: 0.3,
-            },
-            risk: RiskConfig::default(),
-            train: Default::default(),
-            fit: Default::default(),
             elevator,
+        }
+    }
+
+    /// Feature settings matching [`test_model`].
+    pub(crate) fn test_features() -> FeatureConfig {
+        FeatureConfig {
+            rated_load_kg: 1000.0,
+            moving_threshold_mps: 0.05,
+            load_cell_platform_ratio: 0.3,
+            beta_transient: 0.7,
+            beta_cruise: 0.3,
         }
     }
 
     /// A feature row whose voltage is exactly what the model predicts plus `r_u`.
     pub(crate) fn row(
-        model: &FittedModel,
+        model: &HybridModel,
         time: f64,
         v: f64,
         lambda: f64,

@@ -40,161 +40,47 @@
 //!   for the same correlation reason as above. The per-mode statistics are one-sided: only a
 //!   rise of Kd, friction or drag is a degradation.
 //! - Thresholds are calibrated to a stated false-alarm rate by a moving-block bootstrap of the
-//!   healthy trip sequence ([`RiskConfig::calibrate`]); the paper gives no rule for them.
+//!   healthy trip sequence ([`crate::calibrate`]); the paper gives no rule for them.
 //! - The combined risk takes, per trip, the largest excess of any lens over its own boundary,
 //!   so it rises for every mode and for deviations no signature explains (mode `unknown`).
 //!
 //! Constants (defaults, stored in the model file): γ = 0.998 per trip (memory ~500 trips,
 //! about a busy day, so the daily thermal swing of Kd does not make levels flicker),
 //! κ = 0.1 and D_max = 30 trips (a persistent excess weighs e³ ≈ 20 times an isolated one),
-//! H = 500 trips of forgetting in the re-identification.
+//! H = 3000 trips of forgetting in the re-identification.
 //!
-//! Known limit: the physics has no rope imbalance (position-dependent unbalanced mass) and no
-//! direction-dependent Coulomb friction, so the trip residuals depend on the traffic mix
-//! (which floors, which direction). That widens the healthy band of the direction-asymmetric
-//! brake signature most: on the simulator a drag of 0.6·F_c going down is hardly separable
-//! from it within a month.
+//! This stage holds no calibration and does no I/O: [`RiskConfig`] arrives calibrated from
+//! [`crate::calibrate`], and the tracker is a pure function of the trips it is fed.
+//!
+//! Known limit: the physics has no direction-dependent Coulomb friction, so the trip residuals
+//! depend on the traffic mix (which floors, which direction). That widens the healthy band of
+//! the direction-asymmetric brake signature most: on the simulator a drag of 0.6·F_c going down
+//! is hardly separable from it within a month.
 
 // Three-by-three matrices and per-mode arrays read best with explicit indices.
 #![allow(clippy::needless_range_loop)]
 
 use serde::{Deserialize, Serialize};
 
-use crate::baseline::BaselineLimits;
 use crate::error::{Error, Result};
+use crate::exact;
 use crate::features::{FeatureRow, Phase};
-use crate::model::{FittedModel, Prediction};
+use crate::mode::FaultMode;
+pub use crate::mode::N_MODES;
+use crate::model::{HybridModel, PhysParams, Prediction};
 use crate::residual::{PredictionCache, Residuals};
-use crate::rng::Rng;
 
-/// Number of machine fault modes with a signature: motor, brake, friction.
-pub const N_MODES: usize = 3;
-/// Index of the motor signature.
-pub const MOTOR: usize = 0;
-/// Index of the brake signature.
-pub const BRAKE: usize = 1;
-/// Index of the friction signature.
-pub const FRICTION: usize = 2;
-
-/// Independent forgetting windows of healthy trips needed before the standard errors of the
-/// re-identification are widened to the healthy spread (with the default memory of 3000
-/// trips, a busy week gives about one and a half, so the nominal errors stand).
-const MIN_WINDOWS: f64 = 5.0;
+// Indices of the per-mode arrays, in the order of `crate::mode::MACHINE_MODES`.
+const MOTOR: usize = FaultMode::Motor as usize;
+const BRAKE: usize = FaultMode::Brake as usize;
+const FRICTION: usize = FaultMode::Friction as usize;
 
 /// The advisory threshold is never below the risk of this many consecutive trips each 0.1
 /// above τ (a few busy hours).
 const ADVISORY_FLOOR_TRIPS: usize = 100;
 
-/// Seconds per year, for trip rates.
-const YEAR_S: f64 = 365.25 * 86_400.0;
-
-/// Serde for the floats of monitor states: the shortest decimal that parses back to the same
-/// bits, as a string, so that NaN survives JSON and no parser rounds the last digit (a
-/// resumed run must give exactly the rows of one run).
-pub(crate) mod exact {
-    use serde::de::Error as _;
-    use serde::{Deserialize, Deserializer, Serializer};
-
-    fn parse<E: serde::de::Error>(t: &str) -> Result<f64, E> {
-        t.parse()
-            .map_err(|_| E::custom(format!("`{t}` is not a number")))
-    }
-
-    pub fn serialize<S: Serializer>(x: &f64, s: S) -> Result<S::Ok, S::Error> {
-        s.serialize_str(&format!("{x:?}"))
-    }
-
-    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
-        parse(&String::deserialize(d)?)
-    }
-
-    /// The same for fixed-size arrays.
-    pub mod array {
-        use super::*;
-
-        pub fn serialize<S: Serializer, const N: usize>(
-            x: &[f64; N],
-            s: S,
-        ) -> Result<S::Ok, S::Error> {
-            s.collect_seq(x.iter().map(|v| format!("{v:?}")))
-        }
-
-        pub fn deserialize<'de, D: Deserializer<'de>, const N: usize>(
-            d: D,
-        ) -> Result<[f64; N], D::Error> {
-            let v = Vec::<String>::deserialize(d)?;
-            let parsed = v
-                .iter()
-                .map(|t| parse(t))
-                .collect::<Result<Vec<f64>, D::Error>>()?;
-            let n = parsed.len();
-            parsed
-                .try_into()
-                .map_err(|_| D::Error::custom(format!("expected {N} numbers, found {n}")))
-        }
-    }
-}
-
-/// Thresholds on raw samples and trips that tell a broken sensor from a broken machine.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct SensorLimits {
-    /// Lowest plausible load reading (percent of rated load).
-    pub min_load_pct: f64,
-    /// Highest plausible load reading (percent of rated load).
-    pub max_load_pct: f64,
-    /// A trip longer than this is implausible: the speed signal is stuck (s).
-    pub max_trip_s: f64,
-    /// Peak speed above which a trip must change the floor indicator (m/s).
-    pub floor_change_speed_mps: f64,
-    /// This many consecutive door cycles with a bit-identical load reading mean a stuck cell.
-    pub stuck_load_cycles: u32,
-    /// A channel missing this long while others report is a sensor fault (s); loggers drop a
-    /// signal for minutes now and then, so this is an hour.
-    pub missing_limit_s: f64,
-    /// Fraction of recent trips (exponential average over ~10 trips) that must be implausible
-    /// to report `sensor`.
-    pub implausible_fraction: f64,
-}
-
-impl Default for SensorLimits {
-    fn default() -> Self {
-        SensorLimits {
-            min_load_pct: -15.0,
-            max_load_pct: 150.0,
-            max_trip_s: 120.0,
-            floor_change_speed_mps: 0.5,
-            stuck_load_cycles: 20,
-            missing_limit_s: 3600.0,
-            implausible_fraction: 0.5,
-        }
-    }
-}
-
-/// What the calibration did, kept in the model file so the thresholds can be audited.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct CalibrationReport {
-    /// Healthy trips used.
-    pub trips: usize,
-    /// Hours of healthy data they span.
-    pub hours: f64,
-    /// Trips per year at the healthy trip rate.
-    pub trips_per_year: f64,
-    /// Years of healthy operation simulated by the bootstrap.
-    pub years_simulated: f64,
-    /// Length of a bootstrap block (s).
-    pub block_s: f64,
-    /// Seed of the bootstrap.
-    pub seed: u64,
-    /// The stated target: false advisories per elevator-year.
-    pub target_false_advisories_per_year: f64,
-    /// False advisories per year in an independent bootstrap run with the chosen thresholds.
-    pub validated_false_advisories_per_year: f64,
-}
-
-/// Risk settings: accumulator constants and the healthy reference, calibrated by the fit.
-///
 /// [`RiskConfig::default`] holds uncalibrated textbook values (unit-normal healthy
-/// statistics); a model written by `fit` carries the output of [`RiskConfig::calibrate`].
+/// statistics); a model written by `fit` carries the output of [`crate::calibrate::calibrate`].
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct RiskConfig {
     /// γ: decay of R per trip (1).
@@ -239,12 +125,6 @@ pub struct RiskConfig {
     pub release_ratio: f64,
     /// A mode is named only when its scaled risk is this many times the runner-up's.
     pub dominance: f64,
-    /// Sensor plausibility limits.
-    pub sensor: SensorLimits,
-    /// Limits of the conventional fixed-threshold method.
-    pub baseline: BaselineLimits,
-    /// How the thresholds were set; `None` for uncalibrated defaults.
-    pub calibration: Option<CalibrationReport>,
 }
 
 impl Default for RiskConfig {
@@ -270,49 +150,11 @@ impl Default for RiskConfig {
             advisory_modes: [0.0; N_MODES],
             release_ratio: 0.5,
             dominance: 1.5,
-            sensor: SensorLimits::default(),
-            baseline: BaselineLimits::default(),
-            calibration: None,
         };
         cfg.advisory = cfg.advisory_floor();
         cfg.alarm = 4.0 * cfg.advisory;
         cfg.advisory_modes = [cfg.advisory; N_MODES];
         cfg
-    }
-}
-
-/// Settings of [`RiskConfig::calibrate`].
-#[derive(Clone, Debug, PartialEq)]
-pub struct CalibrationSettings {
-    /// Years of healthy operation the bootstrap simulates; the advisory threshold is the
-    /// highest risk reached in them, i.e. the level exceeded once in this many years.
-    pub years: f64,
-    /// Length of a bootstrap block (s). A day keeps the daily thermal cycle of the winding
-    /// resistance whole: with blocks of a few hours the bootstrap chains afternoons (warm
-    /// winding, Kd up) into "weeks" no real elevator sees and sets the thresholds far too high.
-    pub block_s: f64,
-    /// Seed of the bootstrap.
-    pub seed: u64,
-    /// Stated target of false advisories per elevator-year; calibration fails its own check
-    /// (and says so in the report) when the validation run exceeds it.
-    pub target_false_advisories_per_year: f64,
-    /// Alarm threshold, at least this multiple of the advisory threshold.
-    pub alarm_factor: f64,
-    /// Alarm threshold, at least the risk a deviation of this many healthy spreads (z) reaches
-    /// when it persists: alarm means a large deviation, not only a long one.
-    pub alarm_z: f64,
-}
-
-impl Default for CalibrationSettings {
-    fn default() -> Self {
-        CalibrationSettings {
-            years: 10.0,
-            block_s: 86_400.0,
-            seed: 1,
-            target_false_advisories_per_year: 1.0,
-            alarm_factor: 4.0,
-            alarm_z: 5.0,
-        }
     }
 }
 
@@ -371,274 +213,6 @@ impl RiskConfig {
         }
         Ok(())
     }
-
-    /// Calibrates τ, the healthy spreads and the advisory/alarm thresholds on the healthy trips
-    /// of the training data, in time order.
-    ///
-    /// Method: (1) the trip spread var(mean e) = a + b/n is fitted by least squares on the
-    /// squared trip means; (2) the re-identification runs over the healthy trips, giving θ0
-    /// (mean of the estimates after warm-up), their healthy spread σ (estimation noise plus
-    /// the thermal drift of the winding resistance) and k = min(1, σ/rms SE);
-    /// (3) τ = μ_c + 3·σ_c of the healthy c (floored at ln 3: e below 2 is never anomalous);
-    /// (4) a moving-block bootstrap draws blocks of `block_s` of consecutive healthy trips
-    /// and runs the whole tracker over `years` of them at the healthy trip rate; the advisory
-    /// threshold is the highest combined risk it reaches (the level exceeded once in `years`
-    /// years, so a nominal 1/`years` false advisories per year: a margin for what a
-    /// bootstrap of a short record cannot show), never below [`RiskConfig::advisory_floor`];
-    /// the alarm threshold is `alarm_factor` times that, and at least the steady risk of a
-    /// persistent deviation of `alarm_z` healthy spreads. A second, independent bootstrap run
-    /// counts the false advisories per year with the final thresholds and hysteresis; the
-    /// figure is stored in [`CalibrationReport`].
-    ///
-    /// # Errors
-    /// [`Error::Unidentifiable`] with fewer than 30 usable healthy trips, or when they span
-    /// only one direction of travel.
-    pub fn calibrate(
-        healthy: &[TripEvidence],
-        baseline: BaselineLimits,
-        settings: &CalibrationSettings,
-    ) -> Result<RiskConfig> {
-        let mut cfg = RiskConfig {
-            baseline,
-            ..RiskConfig::default()
-        };
-        let trips: Vec<TripEvidence> = healthy.iter().filter(|t| t.usable(&cfg)).cloned().collect();
-        if trips.len() < 30 {
-            return Err(Error::Unidentifiable(format!(
-                "risk calibration needs at least 30 healthy trips with {} moving samples, found {}",
-                cfg.min_trip_samples,
-                trips.len()
-            )));
-        }
-        if !trips.iter().any(|t| t.direction > 0) || !trips.iter().any(|t| t.direction < 0) {
-            return Err(Error::Unidentifiable(
-                "risk calibration needs healthy trips in both directions".into(),
-            ));
-        }
-        let longest = trips.iter().map(|t| t.end - t.start).fold(0.0, f64::max);
-        cfg.sensor.max_trip_s = (2.0 * longest + 20.0).max(cfg.sensor.max_trip_s);
-        cfg.trip_spread_u = fit_spread(trips.iter().map(|t| (t.mean_e_u, t.n)));
-        cfg.trip_spread_f = fit_spread(trips.iter().map(|t| (t.mean_e_f, t.n)));
-        calibrate_drift(&mut cfg, &trips);
-        calibrate_tau(&mut cfg, &trips);
-
-        let t0 = trips.first().map_or(0.0, |t| t.start);
-        let t1 = trips.last().map_or(0.0, |t| t.end);
-        let span_s = (t1 - t0).max(3600.0);
-        let trips_per_year = trips.len() as f64 / span_s * YEAR_S;
-        let total = (settings.years.max(0.1) * trips_per_year).ceil() as u64;
-        let mut rng = Rng::new(settings.seed);
-        let (max_r, max_modes) = bootstrap_maxima(&cfg, &trips, settings.block_s, total, &mut rng);
-        let floor = cfg.advisory_floor();
-        cfg.advisory = max_r.max(floor);
-        let tau_min = cfg.tau_modes.iter().fold(cfg.tau, |a, &b| a.min(b));
-        let persistent = cfg.steady_state(excess(settings.alarm_z.ln_1p(), tau_min));
-        cfg.alarm = (settings.alarm_factor.max(1.0) * cfg.advisory).max(persistent);
-        for m in 0..N_MODES {
-            cfg.advisory_modes[m] = max_modes[m].max(floor);
-        }
-        let mut rng = Rng::new(settings.seed ^ 0x5EED_CA11_B4A7_E000);
-        let episodes = bootstrap_episodes(&cfg, &trips, settings.block_s, total, &mut rng);
-        cfg.calibration = Some(CalibrationReport {
-            trips: trips.len(),
-            hours: span_s / 3600.0,
-            trips_per_year,
-            years_simulated: settings.years,
-            block_s: settings.block_s,
-            seed: settings.seed,
-            target_false_advisories_per_year: settings.target_false_advisories_per_year,
-            validated_false_advisories_per_year: episodes as f64 / settings.years.max(0.1),
-        });
-        cfg.validate()?;
-        Ok(cfg)
-    }
-}
-
-/// Least-squares fit of mean² ≈ a + b/n with a, b ≥ small positive floors.
-fn fit_spread(it: impl Iterator<Item = (f64, u32)>) -> [f64; 2] {
-    let (mut s1, mut sx, mut sxx, mut sy, mut sxy) = (0.0, 0.0, 0.0, 0.0, 0.0);
-    for (m, n) in it {
-        if !m.is_finite() || n == 0 {
-            continue;
-        }
-        let (x, y) = (1.0 / f64::from(n), m * m);
-        s1 += 1.0;
-        sx += x;
-        sxx += x * x;
-        sy += y;
-        sxy += x * y;
-    }
-    if s1 < 2.0 {
-        return RiskConfig::default().trip_spread_u;
-    }
-    let det = s1 * sxx - sx * sx;
-    let mean_y = sy / s1;
-    let (a, b) = if det > 1e-12 * s1 * sxx {
-        let b = (s1 * sxy - sx * sy) / det;
-        ((sy - b * sx) / s1, b)
-    } else {
-        (mean_y, 0.0)
-    };
-    // A negative component is an artefact of noise; give its share to the other one.
-    match (a > 0.0, b > 0.0) {
-        (true, true) => [a, b],
-        (true, false) => [mean_y.max(1e-6), 0.0],
-        (false, true) => [1e-3 * mean_y.max(1e-6), sy / sx.max(1e-12)],
-        (false, false) => [mean_y.max(1e-6), 0.0],
-    }
-}
-
-/// Step 2 of the calibration: θ0, σ, the prior information and s² from a healthy pass.
-fn calibrate_drift(cfg: &mut RiskConfig, trips: &[TripEvidence]) {
-    let forget = cfg.forgetting();
-    let mut rls = Rls::default();
-    let warmup = (cfg.forgetting_trips as usize / 2).min(trips.len() / 3);
-    let mut sum = [0.0; N_MODES];
-    let mut sum2 = [0.0; N_MODES];
-    let mut nominal = [0.0; N_MODES];
-    let mut s2_sum = 0.0;
-    let mut count = 0.0;
-    for (k, t) in trips.iter().enumerate() {
-        if k >= warmup {
-            if let Some((theta, _)) = rls.estimate(1.0) {
-                s2_sum += t.fit_error(&theta);
-            }
-        }
-        rls.update(t, forget);
-        if k < warmup {
-            continue;
-        }
-        let Some((theta, var)) = rls.estimate(1.0) else {
-            continue;
-        };
-        count += 1.0;
-        for m in 0..N_MODES {
-            sum[m] += theta[m];
-            sum2[m] += theta[m] * theta[m];
-            nominal[m] += var[m];
-        }
-    }
-    if count < 2.0 {
-        return;
-    }
-    cfg.prior_s2 = (s2_sum / count).max(1e-12);
-    for m in 0..N_MODES {
-        let mean = sum[m] / count;
-        let var = (sum2[m] / count - mean * mean).max(0.0);
-        cfg.healthy_coef[m] = mean;
-        // A floor of 0.5 % (relative units) keeps a very clean record from declaring any
-        // wander anomalous.
-        cfg.drift_sd[m] = var.sqrt().max(0.005);
-        // The variances above used s² = 1; the healthy s² turns them into SE².
-        let se2 = cfg.prior_s2 * nominal[m] / count;
-        // The spread of θ̂ is known only from many independent forgetting windows; with
-        // fewer than MIN_WINDOWS the nominal errors stand unscaled.
-        let windows = count / cfg.forgetting_trips;
-        // Only ever widened: the in-sample spread of a training week understates new days.
-        // Scaling the errors down gave brake advisories on drags of 30 N ± 43 N, inside one
-        // standard error, on the evaluation's 630 kg car: with a floor of 0.1, 4-7 false
-        // advisories per elevator-year; 0.5, about 5; 1.0, none in 1.6 elevator-years
-        // (`liftwatch evaluate`), at the price of later detection of weak ramps.
-        cfg.se_scale[m] = if se2 > 0.0 && windows >= MIN_WINDOWS {
-            (var / se2).sqrt().clamp(1.0, 5.0)
-        } else {
-            1.0
-        };
-    }
-    cfg.prior_info = rls.a;
-}
-
-/// Step 3 of the calibration: τ = μ + 3σ of the healthy c, combined and per mode.
-fn calibrate_tau(cfg: &mut RiskConfig, trips: &[TripEvidence]) {
-    let mut tracker = RiskTracker::new(cfg);
-    let mut c = Vec::with_capacity(trips.len());
-    let mut cm: [Vec<f64>; N_MODES] = Default::default();
-    for t in trips {
-        let s = tracker.statistics(cfg, t);
-        c.push(s.c);
-        for m in 0..N_MODES {
-            cm[m].push(s.c_modes[m]);
-        }
-    }
-    let floor = (1.0f64 + 2.0).ln();
-    cfg.tau = mean_plus_3sd(&c).max(floor);
-    for m in 0..N_MODES {
-        cfg.tau_modes[m] = mean_plus_3sd(&cm[m]).max(floor);
-    }
-}
-
-fn mean_plus_3sd(x: &[f64]) -> f64 {
-    let n = x.len().max(1) as f64;
-    let mean = x.iter().sum::<f64>() / n;
-    let var = x.iter().map(|v| (v - mean) * (v - mean)).sum::<f64>() / n;
-    mean + 3.0 * var.sqrt()
-}
-
-/// Draws a moving-block bootstrap sequence of `total` trips and hands each to `f`.
-fn bootstrap(
-    trips: &[TripEvidence],
-    block_s: f64,
-    total: u64,
-    rng: &mut Rng,
-    mut f: impl FnMut(&TripEvidence),
-) {
-    let n = trips.len();
-    let mut done = 0u64;
-    while done < total {
-        let i0 = (rng.next_u64() % n as u64) as usize;
-        let start = trips[i0].start;
-        for t in &trips[i0..] {
-            if t.start - start >= block_s || done >= total {
-                break;
-            }
-            f(t);
-            done += 1;
-        }
-    }
-}
-
-/// Highest combined and per-mode risks over a bootstrap run.
-fn bootstrap_maxima(
-    cfg: &RiskConfig,
-    trips: &[TripEvidence],
-    block_s: f64,
-    total: u64,
-    rng: &mut Rng,
-) -> (f64, [f64; N_MODES]) {
-    let mut tracker = RiskTracker::new(cfg);
-    let (mut max_r, mut max_m) = (0.0f64, [0.0f64; N_MODES]);
-    bootstrap(trips, block_s, total, rng, |t| {
-        let a = tracker.push(cfg, t);
-        max_r = max_r.max(a.risk);
-        for m in 0..N_MODES {
-            max_m[m] = max_m[m].max(a.risk_modes[m]);
-        }
-    });
-    (max_r, max_m)
-}
-
-/// Advisory episodes (with the hysteresis of [`crate::alarm`]) over a bootstrap run.
-fn bootstrap_episodes(
-    cfg: &RiskConfig,
-    trips: &[TripEvidence],
-    block_s: f64,
-    total: u64,
-    rng: &mut Rng,
-) -> u64 {
-    let mut tracker = RiskTracker::new(cfg);
-    let mut alarm = crate::alarm::AlarmState::default();
-    let mut episodes = 0;
-    bootstrap(trips, block_s, total, rng, |t| {
-        let a = tracker.push(cfg, t);
-        let before = alarm.machine_level();
-        alarm.update_machine(a.risk, cfg);
-        if before == crate::alarm::Level::Normal
-            && alarm.machine_level() != crate::alarm::Level::Normal
-        {
-            episodes += 1;
-        }
-    });
-    episodes
 }
 
 /// Evidence of one trip: trip-mean residuals and the trip's share of the signature regression.
@@ -673,7 +247,7 @@ impl TripEvidence {
     }
 
     /// Mean squared regression residual of the trip for coefficients θ (V²).
-    fn fit_error(&self, theta: &[f64; N_MODES]) -> f64 {
+    pub(crate) fn fit_error(&self, theta: &[f64; N_MODES]) -> f64 {
         let xtx = unpack(&self.xtx);
         let mut q = self.rr;
         for i in 0..N_MODES {
@@ -694,9 +268,9 @@ impl TripEvidence {
 /// signature by a near-zero force turns a few volts of noise into thousands of percent of
 /// "friction drift" (seen on a 630 kg car: +3100 % ± 2800 %). The floor keeps the coefficient
 /// a relative change of a friction force of realistic size.
-pub fn friction_reference(model: &FittedModel) -> (f64, f64) {
+pub fn friction_reference(model: &HybridModel) -> (f64, f64) {
     let p = &model.parameters;
-    let typical = crate::model::PhysParams::prior_centre(&model.elevator);
+    let typical = PhysParams::prior_centre(&model.elevator);
     (
         p.f_c.max(0.5 * typical.f_c),
         p.c_visc.max(0.5 * typical.c_visc),
@@ -706,7 +280,7 @@ pub fn friction_reference(model: &FittedModel) -> (f64, f64) {
 /// The fault-signature regressors of one moving sample (V per unit coefficient);
 /// `friction` is [`friction_reference`] of `model`, computed once by the caller.
 pub fn signature(
-    model: &FittedModel,
+    model: &HybridModel,
     friction: (f64, f64),
     x: &FeatureRow,
     f_pred: f64,
@@ -752,7 +326,7 @@ impl TripAccumulator {
     /// [`friction_reference`] of `model`.
     pub fn push(
         &mut self,
-        model: &FittedModel,
+        model: &HybridModel,
         friction: (f64, f64),
         x: &FeatureRow,
         p: &Prediction,
@@ -825,10 +399,10 @@ impl TripAccumulator {
     }
 }
 
-/// The healthy trips of a training set, for [`RiskConfig::calibrate`]: residuals of `rows`
+/// The healthy trips of a training set, for [`crate::calibrate::calibrate`]: residuals of `rows`
 /// with `model`, summed per trip (trips as marked by [`FeatureRow::trip`]). Plausibility of
 /// the raw sensors is not checked here: training data are healthy by assumption.
-pub fn trip_evidence(model: &FittedModel, rows: &[FeatureRow]) -> Vec<TripEvidence> {
+pub fn trip_evidence(model: &HybridModel, rows: &[FeatureRow]) -> Vec<TripEvidence> {
     let mut out = Vec::new();
     let mut acc = TripAccumulator::default();
     let mut cache = PredictionCache::default();
@@ -971,7 +545,7 @@ impl Accumulator {
 }
 
 /// x = max(0, c − τ), zero for a missing c.
-fn excess(c: f64, tau: f64) -> f64 {
+pub(crate) fn excess(c: f64, tau: f64) -> f64 {
     if c.is_finite() {
         (c - tau).max(0.0)
     } else {
@@ -981,10 +555,13 @@ fn excess(c: f64, tau: f64) -> f64 {
 
 /// The statistics of one trip before accumulation.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-struct TripStatistics {
-    c: f64,
-    c_modes: [f64; N_MODES],
-    e_trip: f64,
+pub(crate) struct TripStatistics {
+    /// c = ln(1 + e_trip), the compressed trip-level evidence.
+    pub(crate) c: f64,
+    /// c_m = ln(1 + z⁺_m) per mode.
+    pub(crate) c_modes: [f64; N_MODES],
+    /// e_trip itself.
+    pub(crate) e_trip: f64,
 }
 
 /// What the tracker concluded after one trip.
@@ -1038,7 +615,7 @@ impl RiskTracker {
     }
 
     /// Updates the re-identification with one trip and forms its statistics.
-    fn statistics(&mut self, cfg: &RiskConfig, t: &TripEvidence) -> TripStatistics {
+    pub(crate) fn statistics(&mut self, cfg: &RiskConfig, t: &TripEvidence) -> TripStatistics {
         let forget = cfg.forgetting();
         // The regression residual variance, tracked with the same horizon, from the error
         // of the estimate before this trip (a prediction error, so a fault inflates it late).
@@ -1108,6 +685,7 @@ impl RiskTracker {
 pub(crate) mod tests {
     use super::*;
     use crate::residual::tests::{row, test_model};
+    use crate::rng::Rng;
 
     /// A fault or drift as a voltage residual added to each moving sample.
     pub(crate) type Injection<'a> = &'a dyn Fn(f64, &[f64; N_MODES]) -> f64;
@@ -1115,7 +693,7 @@ pub(crate) mod tests {
     /// Synthetic trips: S-shaped speed profile, random load and direction, white noise of
     /// σ_U on the voltage, a daily ±3 % swing of Kd (thermal), plus `fault(t, signature)`.
     pub(crate) fn synthetic_trips(
-        model: &FittedModel,
+        model: &HybridModel,
         seed: u64,
         days: f64,
         t0: f64,
@@ -1166,32 +744,6 @@ pub(crate) mod tests {
         out
     }
 
-    pub(crate) fn calibrated(model: &FittedModel) -> RiskConfig {
-        let healthy = synthetic_trips(model, 11, 8.0, 0.0, &|_, _| 0.0);
-        let settings = CalibrationSettings {
-            years: 5.0,
-            ..CalibrationSettings::default()
-        };
-        RiskConfig::calibrate(&healthy, BaselineLimits::default(), &settings)
-            .expect("synthetic healthy trips suffice")
-    }
-
-    fn run(cfg: &RiskConfig, trips: &[TripEvidence]) -> Vec<TripAssessment> {
-        let mut tr = RiskTracker::new(cfg);
-        trips.iter().map(|t| tr.push(cfg, t)).collect()
-    }
-
-    fn first_advisory(
-        cfg: &RiskConfig,
-        a: &[TripAssessment],
-        trips: &[TripEvidence],
-    ) -> Option<f64> {
-        a.iter()
-            .zip(trips)
-            .find(|(a, _)| a.risk >= cfg.advisory)
-            .map(|(_, t)| t.start)
-    }
-
     #[test]
     fn inverse_of_a_spd_matrix_is_exact() {
         let p = [4.0, 1.0, 0.5, 3.0, 0.2, 2.0];
@@ -1224,150 +776,5 @@ pub(crate) mod tests {
         assert!((theta[MOTOR] - 0.10).abs() < 0.01, "{theta:?}");
         assert!((theta[FRICTION] - 0.25).abs() < 0.05, "{theta:?}");
         assert!((theta[BRAKE] - 0.5).abs() < 0.1, "{theta:?}");
-    }
-
-    #[test]
-    fn a_healthy_sequence_stays_normal() {
-        let m = test_model();
-        let cfg = calibrated(&m);
-        // Thirty new healthy days, other seed, including the ±3 % daily Kd swing.
-        let trips = synthetic_trips(&m, 99, 30.0, 0.0, &|_, _| 0.0);
-        let a = run(&cfg, &trips);
-        let max = a.iter().map(|a| a.risk).fold(0.0, f64::max);
-        assert!(
-            max < cfg.advisory,
-            "healthy risk {max} reached the advisory {}",
-            cfg.advisory
-        );
-        let report = cfg.calibration.as_ref().unwrap();
-        assert!(
-            report.validated_false_advisories_per_year <= report.target_false_advisories_per_year,
-            "{report:?}"
-        );
-    }
-
-    #[test]
-    fn slow_drift_is_not_absorbed_by_the_boundary() {
-        // Friction creeps up linearly to +30 % over 20 days. A boundary over the recent window
-        // would rise with it; the healthy boundary does not, so evidence keeps accumulating.
-        let m = test_model();
-        let cfg = calibrated(&m);
-        let days = 20.0;
-        let ramp = move |t: f64, x: &[f64; N_MODES]| 0.30 * (t / (days * 86_400.0)) * x[FRICTION];
-        let trips = synthetic_trips(&m, 5, days, 0.0, &ramp);
-        let a = run(&cfg, &trips);
-        let first = first_advisory(&cfg, &a, &trips).expect("the drift must raise an advisory");
-        assert!(
-            first < 0.8 * days * 86_400.0,
-            "advisory only at day {}",
-            first / 86_400.0
-        );
-        // Once found, the drift stays found: the last fifth of the ramp is all above advisory.
-        let tail = &a[a.len() * 4 / 5..];
-        assert!(
-            tail.iter().all(|a| a.risk >= cfg.advisory),
-            "risk fell back while the drift grew"
-        );
-    }
-
-    #[test]
-    fn a_step_in_the_voltage_residual_raises_risk_and_names_friction() {
-        // A constant +k·σ on every moving sample looks like more friction: the same extra
-        // force in both directions at every load.
-        let m = test_model();
-        let cfg = calibrated(&m);
-        let k = 1.0 * m.scales.sigma_u_v;
-        let trips = synthetic_trips(&m, 6, 6.0, 0.0, &|t, _| if t > 86_400.0 { k } else { 0.0 });
-        let a = run(&cfg, &trips);
-        let last = a.last().unwrap();
-        assert!(
-            last.risk >= cfg.advisory,
-            "{} < {}",
-            last.risk,
-            cfg.advisory
-        );
-        let q: Vec<f64> = (0..N_MODES)
-            .map(|i| last.risk_modes[i] / cfg.advisory_modes[i])
-            .collect();
-        assert!(
-            q[FRICTION] > cfg.dominance * q[MOTOR].max(q[BRAKE]),
-            "{q:?}"
-        );
-        assert!(a
-            .iter()
-            .zip(&trips)
-            .filter(|(_, t)| t.start < 86_400.0)
-            .all(|(a, _)| a.risk < cfg.advisory));
-    }
-
-    #[test]
-    fn load_proportional_residual_raises_motor() {
-        let m = test_model();
-        let cfg = calibrated(&m);
-        // 20 days: with a memory of 3000 trips (~8 synthetic days) the estimate needs that
-        // long to settle on the new Kd; the tolerance is unchanged.
-        let trips = synthetic_trips(&m, 7, 20.0, 0.0, &|t, x| {
-            if t > 86_400.0 {
-                0.10 * x[MOTOR]
-            } else {
-                0.0
-            }
-        });
-        let last = *run(&cfg, &trips).last().unwrap();
-        assert!(last.risk >= cfg.advisory);
-        assert!(
-            (last.drift[MOTOR] - 0.10).abs() < 0.03,
-            "Kd drift {}",
-            last.drift[MOTOR]
-        );
-        let q: Vec<f64> = (0..N_MODES)
-            .map(|i| last.risk_modes[i] / cfg.advisory_modes[i])
-            .collect();
-        assert!(
-            q[MOTOR] > cfg.dominance * q[FRICTION].max(q[BRAKE]),
-            "{q:?}"
-        );
-    }
-
-    #[test]
-    fn asymmetric_residual_raises_brake_not_friction() {
-        // Drag only going down or decelerating: the brake's signature, not friction's.
-        let m = test_model();
-        let cfg = calibrated(&m);
-        let trips = synthetic_trips(&m, 8, 6.0, 0.0, &|t, x| {
-            if t > 86_400.0 {
-                0.5 * x[BRAKE]
-            } else {
-                0.0
-            }
-        });
-        let last = *run(&cfg, &trips).last().unwrap();
-        assert!(last.risk >= cfg.advisory);
-        let q: Vec<f64> = (0..N_MODES)
-            .map(|i| last.risk_modes[i] / cfg.advisory_modes[i])
-            .collect();
-        assert!(
-            q[BRAKE] > cfg.dominance * q[FRICTION].max(q[MOTOR]),
-            "{q:?}"
-        );
-        assert!(
-            last.drift[FRICTION] < 0.1,
-            "friction drift {}",
-            last.drift[FRICTION]
-        );
-    }
-
-    #[test]
-    fn calibration_refuses_too_few_trips() {
-        let m = test_model();
-        let trips = synthetic_trips(&m, 1, 0.05, 0.0, &|_, _| 0.0);
-        assert!(trips.len() < 30);
-        let err = RiskConfig::calibrate(
-            &trips,
-            BaselineLimits::default(),
-            &CalibrationSettings::default(),
-        )
-        .unwrap_err();
-        assert!(err.to_string().contains("30 healthy trips"), "{err}");
     }
 }

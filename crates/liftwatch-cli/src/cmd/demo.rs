@@ -12,13 +12,14 @@ use std::time::Instant;
 use anyhow::Context;
 use liftwatch::alarm::Level;
 use liftwatch::align::{read_series, AlignConfig};
-use liftwatch::model::{self, TrainConfig};
+use liftwatch::model::TrainConfig;
 use liftwatch::monitor::MonitorRow;
 use liftwatch::rng::Rng;
 use liftwatch::sim::plant::SimElevator;
 use liftwatch::sim::scenario::FaultMode;
 use liftwatch::sim::{write_dir, SimConfig, SimTruth};
 use liftwatch::Elevator;
+use liftwatch::{file, fit};
 use liftwatch_report::{write_report, Analysis};
 
 /// Flags of `liftwatch demo`.
@@ -102,7 +103,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if let Some(w) = report.warning() {
         eprintln!("warning: {w}");
     }
-    let outcome = model::fit(
+    let outcome = fit::fit(
         &series,
         &elevator,
         &TrainConfig {
@@ -113,7 +114,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     )
     .context("fitting the training days")?;
     let model_path = out.join("model.json");
-    model::file::save(&model_path, &outcome.model)?;
+    file::save(&model_path, &outcome.model)?;
     let fitted = started.elapsed().as_secs_f64();
 
     step(
@@ -194,7 +195,7 @@ fn write_events(path: &Path, events: &[liftwatch::alarm::Event]) -> anyhow::Resu
         text.push_str(&serde_json::to_string(e)?);
         text.push('\n');
     }
-    liftwatch::model::file::write_atomic(path, text.as_bytes())?;
+    liftwatch::output::write_atomic(path, text.as_bytes())?;
     Ok(())
 }
 

@@ -6,8 +6,9 @@ use std::time::Instant;
 use anyhow::Context;
 use liftwatch::align::{read_series, AlignConfig};
 use liftwatch::model::train::{Optimizer, TrainPoint};
-use liftwatch::model::{self, TrainConfig};
+use liftwatch::model::TrainConfig;
 use liftwatch::Elevator;
+use liftwatch::{file, fit};
 
 /// Flags of `liftwatch fit`.
 #[derive(Debug, clap::Args)]
@@ -93,10 +94,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             );
         }
     };
-    let outcome = model::fit(&series, &elevator, &cfg, &mut progress)
+    let outcome = fit::fit(&series, &elevator, &cfg, &mut progress)
         .with_context(|| format!("fitting {}", args.input.display()))?;
     let seconds = started.elapsed().as_secs_f64();
-    model::file::save(&args.out, &outcome.model)?;
+    file::save(&args.out, &outcome.model)?;
     print!(
         "{}",
         summary(&outcome.model, outcome.features.trips.len(), seconds)
@@ -106,9 +107,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 }
 
 /// The on-screen summary of a fit: parameters with standard errors, warnings, calibration.
-pub fn summary(m: &model::FittedModel, trips: usize, seconds: f64) -> String {
+pub fn summary(m: &fit::FittedModel, trips: usize, seconds: f64) -> String {
     use std::fmt::Write;
-    let f = &m.fit;
+    let f = &m.summary;
     let mut s = String::new();
     let _ = writeln!(
         s,
@@ -144,7 +145,7 @@ pub fn summary(m: &model::FittedModel, trips: usize, seconds: f64) -> String {
     let _ = writeln!(
         s,
         "healthy scales: σ_U {:.2} V, σ_F {:.0} N; risk thresholds: advisory {:.3}, alarm {:.3}",
-        m.scales.sigma_u_v, m.scales.sigma_f_n, m.risk.advisory, m.risk.alarm
+        m.hybrid.scales.sigma_u_v, m.hybrid.scales.sigma_f_n, m.risk.advisory, m.risk.alarm
     );
     s
 }

@@ -13,7 +13,8 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use liftwatch::align::{align_file, AlignConfig, SampleSink};
-use liftwatch::model::{file, FittedModel};
+use liftwatch::file;
+use liftwatch::fit::FittedModel;
 use liftwatch::monitor::{Method, Monitor, MonitorRow, MonitorState, RowWriter};
 use liftwatch::Sample;
 

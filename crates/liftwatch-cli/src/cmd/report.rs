@@ -9,7 +9,7 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use liftwatch::align::{read_series, AlignConfig};
-use liftwatch::model::file;
+use liftwatch::file;
 use liftwatch_report::{write_report, Analysis};
 
 /// Flags of `liftwatch report`.

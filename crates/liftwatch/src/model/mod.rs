@@ -3,12 +3,14 @@
 //! ```text
 //! U_pred = U_phys(v, λ, a; θ) + δU(x)
 //! F_pred = F_phys(v, λ, a; θ) + δF(x)
+//! F_U    = (U − U0 − Ke·|v|) / (φ(s)·Kd·s)      the force the measured voltage implies
 //! ```
 //!
-//! [`physics`] holds θ and the equations, [`net`] the network, [`train`] the fit,
-//! [`file`] the versioned model file that `monitor` reads.
+//! [`HybridModel`] holds θ, the network and the healthy residual scales σ and makes the one
+//! prediction every later stage uses. [`physics`] holds θ and the equations, [`net`] the
+//! network, [`loss`] the training objective and [`train`] the identification. The whole fitted
+//! artefact, with every later stage's calibrated settings, is [`crate::fit::FittedModel`].
 
-pub mod file;
 pub mod loss;
 pub mod net;
 pub mod physics;
@@ -16,19 +18,12 @@ pub mod train;
 
 use serde::{Deserialize, Serialize};
 
-use crate::baseline::BaselineLimits;
 use crate::elevator::Elevator;
-use crate::error::Result;
-use crate::features::{FeatureConfig, FeatureRow, Features};
-use crate::risk::{CalibrationSettings, RiskConfig, TripEvidence};
-use crate::sample::AlignedSeries;
+use crate::features::FeatureRow;
 
 pub use net::ResidualNet;
 pub use physics::PhysParams;
 pub use train::{FitSummary, TrainConfig};
-
-/// Version of the model file this build writes and reads.
-pub const FORMAT_VERSION: u32 = 1;
 
 /// Healthy residual scales σ_U, σ_F from the fit: they make the residuals dimensionless.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -50,11 +45,9 @@ pub struct Prediction {
     pub f_u: f64,
 }
 
-/// Everything `monitor` needs, as written by `fit` (DATA.md §5).
+/// The identified hybrid model of one elevator: θ, the correcting network and σ.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct FittedModel {
-    /// Format version, [`FORMAT_VERSION`] when written by this build.
-    pub format_version: u32,
+pub struct HybridModel {
     /// The elevator description the model was fitted for.
     pub elevator: Elevator,
     /// Identified physical parameters θ.
@@ -63,22 +56,14 @@ pub struct FittedModel {
     pub net: ResidualNet,
     /// Healthy residual scales.
     pub scales: ResidualScales,
-    /// Feature settings, including the load-cell gain fitted on the training data.
-    pub features: FeatureConfig,
-    /// Risk settings, calibrated on the healthy residuals of the fit.
-    pub risk: RiskConfig,
-    /// The settings the model was trained with.
-    pub train: TrainConfig,
-    /// Standard errors, training history and warnings of the fit.
-    pub fit: FitSummary,
 }
 
-impl FittedModel {
-    /// Predicts voltage and force for one feature row and the force implied by its voltage.
-    pub fn predict(&self, x: &FeatureRow) -> Prediction {
+impl HybridModel {
+    /// Predicts voltage and force for one feature row, with the network's correction
+    /// `[δU, δF]` already evaluated for the row's inputs, and the force implied by its voltage.
+    pub fn predict_with(&self, x: &FeatureRow, [du, df]: [f64; 2]) -> Prediction {
         let p = &self.parameters;
         let m_r = self.elevator.rated_load_kg;
-        let [du, df] = self.net.forward(x.v, x.lambda, x.a);
         let q = PhysParams::relative_height(x.floor, self.elevator.floors);
         let f_phys = p.force(x.s, x.v, x.lambda, x.a, q, m_r);
         Prediction {
@@ -87,69 +72,10 @@ impl FittedModel {
             f_u: p.force_from_voltage(x.s, x.v, x.voltage),
         }
     }
-}
 
-/// Everything `fit` produces: the model, and the intermediate results a report shows.
-#[derive(Clone, Debug)]
-pub struct FitOutcome {
-    /// The fitted, calibrated model.
-    pub model: FittedModel,
-    /// Features of the training data (with the fitted load-cell gain).
-    pub features: Features,
-    /// Per-trip evidence of the training data, on which the risk was calibrated.
-    pub healthy_trips: Vec<TripEvidence>,
-}
-
-/// Margin of the fixed-threshold baseline above the healthy extremes (fraction).
-pub const BASELINE_MARGIN: f64 = 0.5;
-
-/// The whole identification: features (with the load-cell gain fitted on this history),
-/// the hybrid model, healthy residual scales, the baseline's limits and the calibration of the
-/// risk thresholds on the healthy trips.
-///
-/// `observer` sees each logged training point (progress, plots).
-///
-/// # Errors
-/// [`Error::TooLittleMotion`](crate::Error::TooLittleMotion) and
-/// [`Error::Unidentifiable`](crate::Error::Unidentifiable) when the data cannot determine the
-/// model or calibrate the risk; [`Error::InvalidConfig`](crate::Error::InvalidConfig) for bad settings.
-pub fn fit(
-    series: &AlignedSeries,
-    elevator: &Elevator,
-    cfg: &TrainConfig,
-    observer: &mut dyn FnMut(&train::TrainPoint),
-) -> Result<FitOutcome> {
-    let feature_cfg =
-        crate::features::fit_load_cell(series, &FeatureConfig::for_elevator(elevator))?;
-    let features = crate::features::extract(series, &feature_cfg);
-    let prior = PhysParams::prior_centre(elevator);
-    let (obs, _, n_rest) = train::observations_weighted(
-        &features.rows,
-        elevator.floors,
-        cfg.standstill_share,
-        prior.ke,
-        0.005 * elevator.rated_voltage(),
-    )?;
-    let trained = train::train(&obs, elevator, cfg, observer)?;
-    let mut summary = trained.summary;
-    summary.standstill_samples = n_rest;
-    let mut model = FittedModel {
-        format_version: FORMAT_VERSION,
-        elevator: elevator.clone(),
-        parameters: trained.parameters,
-        net: trained.net,
-        scales: trained.scales,
-        features: feature_cfg,
-        risk: RiskConfig::default(),
-        train: cfg.clone(),
-        fit: summary,
-    };
-    let limits = BaselineLimits::calibrate(&model, &features.rows, BASELINE_MARGIN)?;
-    let healthy_trips = crate::risk::trip_evidence(&model, &features.rows);
-    model.risk = RiskConfig::calibrate(&healthy_trips, limits, &CalibrationSettings::default())?;
-    Ok(FitOutcome {
-        model,
-        features,
-        healthy_trips,
-    })
+    /// Predicts voltage and force for one feature row, the network evaluated at the row's own
+    /// (v, λ, a).
+    pub fn predict(&self, x: &FeatureRow) -> Prediction {
+        self.predict_with(x, self.net.forward(x.v, x.lambda, x.a))
+    }
 }

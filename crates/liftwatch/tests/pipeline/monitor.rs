@@ -6,8 +6,9 @@
 //! the motor, and the conventional baseline is compared on the same run.
 
 use liftwatch::alarm::{FaultMode as Named, Level};
-use liftwatch::model::{fit, FittedModel, TrainConfig};
-use liftwatch::monitor::{Method, Monitor, MonitorRow};
+use liftwatch::fit::{fit, FittedModel};
+use liftwatch::model::TrainConfig;
+use liftwatch::monitor::{Method, MonitorRow};
 use liftwatch::rng::Rng;
 use liftwatch::sim::{simulate, FaultMode, Ramp, Scenario, SimConfig, SimElevator};
 use liftwatch::{Elevator, Sample};
@@ -37,10 +38,7 @@ fn telemetry(
 }
 
 fn run(model: &FittedModel, method: Method, xs: &[Sample]) -> Vec<MonitorRow> {
-    let mut m = Monitor::new(model, method);
-    let mut rows: Vec<MonitorRow> = xs.iter().filter_map(|x| m.push(x)).collect();
-    rows.extend(m.finish());
-    rows
+    liftwatch::monitor::run(model, xs, method)
 }
 
 #[test]

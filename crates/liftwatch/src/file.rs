@@ -2,15 +2,103 @@
 //!
 //! A document of another version, with a missing field or with a value that cannot be a
 //! model (a non-finite parameter, a network of the wrong size) is refused with a one-line error.
+//!
+//! The document keeps the layout of format version 1: the hybrid model's fields at the top
+//! level, and the sensor limits, the baseline's limits and the calibration report inside
+//! `risk`. In memory each belongs to its own stage ([`FittedModel`]); [`ModelDocument`] maps
+//! one onto the other, so models written by earlier builds still load.
 
-use std::io::Write;
 use std::path::Path;
 
-use crate::error::{Error, Result};
-use crate::model::net::N_WEIGHTS;
-use crate::model::{FittedModel, FORMAT_VERSION};
+use serde::{Deserialize, Serialize};
 
-/// Writes the model atomically: a temporary file beside `path`, renamed on success.
+use crate::baseline::BaselineLimits;
+use crate::calibrate::CalibrationReport;
+use crate::elevator::Elevator;
+use crate::error::{Error, Result};
+use crate::features::FeatureConfig;
+use crate::fit::FittedModel;
+use crate::model::net::N_WEIGHTS;
+use crate::model::{FitSummary, HybridModel, PhysParams, ResidualNet, ResidualScales, TrainConfig};
+use crate::output::write_atomic;
+use crate::risk::RiskConfig;
+use crate::sensor::SensorLimits;
+
+/// Version of the model file this build writes and reads.
+pub const FORMAT_VERSION: u32 = 1;
+
+/// The model file as written: field names and order are the file format.
+#[derive(Serialize, Deserialize)]
+pub struct ModelDocument {
+    format_version: u32,
+    elevator: Elevator,
+    parameters: PhysParams,
+    net: ResidualNet,
+    scales: ResidualScales,
+    features: FeatureConfig,
+    risk: RiskSection,
+    train: TrainConfig,
+    fit: FitSummary,
+}
+
+/// The `risk` object of the file: the risk settings with the other stages' limits inside.
+#[derive(Serialize, Deserialize)]
+struct RiskSection {
+    #[serde(flatten)]
+    settings: RiskConfig,
+    sensor: SensorLimits,
+    baseline: BaselineLimits,
+    calibration: Option<CalibrationReport>,
+}
+
+impl From<FittedModel> for ModelDocument {
+    fn from(m: FittedModel) -> Self {
+        let HybridModel {
+            elevator,
+            parameters,
+            net,
+            scales,
+        } = m.hybrid;
+        ModelDocument {
+            format_version: FORMAT_VERSION,
+            elevator,
+            parameters,
+            net,
+            scales,
+            features: m.features,
+            risk: RiskSection {
+                settings: m.risk,
+                sensor: m.sensor,
+                baseline: m.baseline,
+                calibration: m.calibration,
+            },
+            train: m.train,
+            fit: m.summary,
+        }
+    }
+}
+
+impl From<ModelDocument> for FittedModel {
+    fn from(d: ModelDocument) -> Self {
+        FittedModel {
+            hybrid: HybridModel {
+                elevator: d.elevator,
+                parameters: d.parameters,
+                net: d.net,
+                scales: d.scales,
+            },
+            features: d.features,
+            risk: d.risk.settings,
+            sensor: d.risk.sensor,
+            baseline: d.risk.baseline,
+            calibration: d.risk.calibration,
+            train: d.train,
+            summary: d.fit,
+        }
+    }
+}
+
+/// Writes the model atomically (see [`write_atomic`]).
 ///
 /// # Errors
 /// [`Error::Io`] when the file cannot be written.
@@ -21,33 +109,6 @@ pub fn save(path: &Path, model: &FittedModel) -> Result<()> {
         why: e.to_string(),
     })?;
     write_atomic(path, text.as_bytes())
-}
-
-/// Writes `bytes` to a temporary file beside `path` and renames it into place, so that a failed
-/// run never leaves a half-written file behind.
-///
-/// # Errors
-/// [`Error::Io`] when the file cannot be written.
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    let dir = path
-        .parent()
-        .filter(|p| !p.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "out".into());
-    let tmp = dir.join(format!(".{name}.tmp{}", std::process::id()));
-    let result = (|| {
-        let mut f = std::fs::File::create(&tmp)?;
-        f.write_all(bytes)?;
-        f.sync_all()?;
-        std::fs::rename(&tmp, path)
-    })();
-    result.map_err(|e| {
-        let _ = std::fs::remove_file(&tmp);
-        Error::io(path, e)
-    })
 }
 
 /// Reads and checks a model file.
@@ -96,11 +157,9 @@ fn parse(text: &str) -> std::result::Result<FittedModel, ParseError> {
 }
 
 fn check(m: &FittedModel) -> std::result::Result<(), String> {
+    let m = &m.hybrid;
     m.elevator.validate()?;
-    for (name, v) in crate::model::PhysParams::NAMES
-        .iter()
-        .zip(m.parameters.to_array())
-    {
+    for (name, v) in PhysParams::NAMES.iter().zip(m.parameters.to_array()) {
         if !v.is_finite() {
             return Err(format!(
                 "parameter `{name}` is {v}, expected a finite number"

@@ -1,0 +1,140 @@
+//! The whole identification, stages 3-7 calibrated from one healthy history (paper, Sec. 3-4):
+//! `fit()` turns an aligned series into the one artefact every later use reads, [`FittedModel`].
+//!
+//! ```text
+//! aligned series ─ features (load-cell gain fitted here) ─ hybrid model θ, net, σ   (stage 4)
+//!                ─ baseline limits from the healthy instantaneous signals       (Sec. 5.4)
+//!                ─ per-trip evidence ─ calibrated risk thresholds, sensor limits (stages 6-7)
+//! ```
+//!
+//! The artefact sits after every stage it configures, so no stage imports it: residuals take a
+//! [`HybridModel`], the risk stage a [`RiskConfig`], the baseline its [`BaselineLimits`]. Its
+//! file form (DATA.md §5) is [`crate::file`].
+
+use crate::baseline::BaselineLimits;
+use crate::calibrate::{calibrate, CalibrationReport, CalibrationSettings};
+use crate::elevator::Elevator;
+use crate::error::Result;
+use crate::features::{FeatureConfig, Features};
+use crate::model::train::{self, TrainPoint};
+use crate::model::{FitSummary, HybridModel, PhysParams, TrainConfig};
+use crate::risk::{trip_evidence, RiskConfig, TripEvidence};
+use crate::sample::AlignedSeries;
+use crate::sensor::SensorLimits;
+
+/// Everything `monitor` needs, as written by `fit` (DATA.md §5).
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(
+    into = "crate::file::ModelDocument",
+    from = "crate::file::ModelDocument"
+)]
+pub struct FittedModel {
+    /// The hybrid model: elevator, θ, network and healthy residual scales.
+    pub hybrid: HybridModel,
+    /// Feature settings, including the load-cell gain fitted on the training data.
+    pub features: FeatureConfig,
+    /// Risk settings, calibrated on the healthy residuals of the fit.
+    pub risk: RiskConfig,
+    /// Sensor plausibility limits.
+    pub sensor: SensorLimits,
+    /// Limits of the conventional fixed-threshold method.
+    pub baseline: BaselineLimits,
+    /// How the risk thresholds were set; `None` for uncalibrated defaults.
+    pub calibration: Option<CalibrationReport>,
+    /// The settings the model was trained with.
+    pub train: TrainConfig,
+    /// Standard errors, training history and warnings of the fit.
+    pub summary: FitSummary,
+}
+
+/// Everything `fit` produces: the model, and the intermediate results a report shows.
+#[derive(Clone, Debug)]
+pub struct FitOutcome {
+    /// The fitted, calibrated model.
+    pub model: FittedModel,
+    /// Features of the training data (with the fitted load-cell gain).
+    pub features: Features,
+    /// Per-trip evidence of the training data, on which the risk was calibrated.
+    pub healthy_trips: Vec<TripEvidence>,
+}
+
+/// Margin of the fixed-threshold baseline above the healthy extremes (fraction).
+pub const BASELINE_MARGIN: f64 = 0.5;
+
+/// Voltage noise σ of the interpolation weights of moving samples
+/// ([`train::interpolation_weight`]), as a share of the rated voltage: 0.5 %, about the noise
+/// of a drive's 1 Hz voltage reading.
+const STANDSTILL_NOISE_SHARE: f64 = 0.005;
+
+/// The whole identification: features (with the load-cell gain fitted on this history),
+/// the hybrid model, healthy residual scales, the baseline's limits and the calibration of the
+/// risk thresholds on the healthy trips.
+///
+/// `observer` sees each logged training point (progress, plots).
+///
+/// # Errors
+/// [`Error::TooLittleMotion`](crate::Error::TooLittleMotion) and
+/// [`Error::Unidentifiable`](crate::Error::Unidentifiable) when the data cannot determine the
+/// model or calibrate the risk; [`Error::InvalidConfig`](crate::Error::InvalidConfig) for bad settings.
+pub fn fit(
+    series: &AlignedSeries,
+    elevator: &Elevator,
+    cfg: &TrainConfig,
+    observer: &mut dyn FnMut(&TrainPoint),
+) -> Result<FitOutcome> {
+    let feature_cfg =
+        crate::features::fit_load_cell(series, &FeatureConfig::for_elevator(elevator))?;
+    let features = crate::features::extract(series, &feature_cfg);
+    let prior = PhysParams::prior_centre(elevator);
+    let (obs, _, n_rest) = train::observations_weighted(
+        &features.rows,
+        elevator.floors,
+        cfg.standstill_share,
+        prior.ke,
+        STANDSTILL_NOISE_SHARE * elevator.rated_voltage(),
+    )?;
+    let trained = train::train(&obs, elevator, cfg, observer)?;
+    let mut summary = trained.summary;
+    summary.standstill_samples = n_rest;
+    let hybrid = HybridModel {
+        elevator: elevator.clone(),
+        parameters: trained.parameters,
+        net: trained.net,
+        scales: trained.scales,
+    };
+    let baseline = BaselineLimits::calibrate(&hybrid, &features.rows, BASELINE_MARGIN)?;
+    let healthy_trips = trip_evidence(&hybrid, &features.rows);
+    let calibrated = calibrate(&healthy_trips, &CalibrationSettings::default())?;
+    let model = FittedModel {
+        hybrid,
+        features: feature_cfg,
+        risk: calibrated.risk,
+        sensor: calibrated.sensor,
+        baseline,
+        calibration: Some(calibrated.report),
+        train: cfg.clone(),
+        summary,
+    };
+    Ok(FitOutcome {
+        model,
+        features,
+        healthy_trips,
+    })
+}
+
+impl FittedModel {
+    /// A model of `hybrid` with uncalibrated default settings of every later stage: for tests
+    /// and benchmarks that exercise the pipeline without a fit.
+    pub fn uncalibrated(hybrid: HybridModel, features: FeatureConfig) -> FittedModel {
+        FittedModel {
+            hybrid,
+            features,
+            risk: RiskConfig::default(),
+            sensor: SensorLimits::default(),
+            baseline: BaselineLimits::default(),
+            calibration: None,
+            train: TrainConfig::default(),
+            summary: FitSummary::default(),
+        }
+    }
+}

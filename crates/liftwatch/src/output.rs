@@ -1,0 +1,227 @@
+//! The one way liftwatch writes a file: whole or not at all.
+//!
+//! ```text
+//! regular file (or a new one):  write to a unique temporary file beside the target,
+//!                               flush, fsync, rename over the target, fsync the directory
+//! device, FIFO:                 written in place (a rename would replace /dev/null by a file)
+//! symbolic link:                followed: its target is what gets replaced
+//! ```
+//!
+//! A failed or abandoned write removes its temporary file and leaves the target untouched, so a
+//! reader sees the old content or the new, never a torn one; after [`AtomicFile::commit`]
+//! returns, the new content survives a power cut.
+
+use std::fs::File;
+use std::io::{self, BufWriter, Write};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use crate::error::{Error, Result};
+
+/// Distinguishes the temporary files of one process (several outputs, several threads).
+static NEXT_TEMP: AtomicU64 = AtomicU64::new(0);
+
+/// A file being written: committed into place by [`AtomicFile::commit`], discarded when
+/// dropped without it.
+#[derive(Debug)]
+pub struct AtomicFile {
+    /// Where the content ends up (a symbolic link already resolved).
+    target: PathBuf,
+    /// The temporary file, `None` when the target is written in place (not a regular file).
+    temp: Option<PathBuf>,
+    out: BufWriter<File>,
+}
+
+impl AtomicFile {
+    /// Starts writing `path`.
+    ///
+    /// # Errors
+    /// [`Error::Io`] when the temporary file (or a device target) cannot be opened.
+    pub fn create(path: &Path) -> Result<AtomicFile> {
+        let target = resolve(path);
+        let special = std::fs::metadata(&target).is_ok_and(|m| !m.is_file() && !m.is_dir());
+        if special {
+            let file = std::fs::OpenOptions::new()
+                .write(true)
+                .open(&target)
+                .map_err(|e| Error::io(&target, e))?;
+            return Ok(AtomicFile {
+                target,
+                temp: None,
+                out: BufWriter::new(file),
+            });
+        }
+        let temp = temp_path(&target);
+        let file = File::create(&temp).map_err(|e| Error::io(&target, e))?;
+        Ok(AtomicFile {
+            target,
+            temp: Some(temp),
+            out: BufWriter::with_capacity(1 << 16, file),
+        })
+    }
+
+    /// The path the content will have.
+    pub fn path(&self) -> &Path {
+        &self.target
+    }
+
+    /// Flushes, syncs and moves the content into place.
+    ///
+    /// # Errors
+    /// [`Error::Io`] when any step fails; the target is then unchanged.
+    pub fn commit(mut self) -> Result<()> {
+        let target = self.target.clone();
+        let result = (|| {
+            self.out.flush()?;
+            let Some(temp) = self.temp.as_ref() else {
+                return Ok(());
+            };
+            self.out.get_ref().sync_all()?;
+            std::fs::rename(temp, &self.target)?;
+            self.temp = None;
+            sync_dir(&self.target);
+            Ok(())
+        })();
+        result.map_err(|e: io::Error| Error::io(&target, e))
+    }
+}
+
+impl Write for AtomicFile {
+    fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
+        self.out.write(buf)
+    }
+
+    fn write_all(&mut self, buf: &[u8]) -> io::Result<()> {
+        self.out.write_all(buf)
+    }
+
+    fn flush(&mut self) -> io::Result<()> {
+        self.out.flush()
+    }
+}
+
+impl Drop for AtomicFile {
+    fn drop(&mut self) {
+        if let Some(temp) = self.temp.take() {
+            let _ = std::fs::remove_file(temp);
+        }
+    }
+}
+
+/// Writes `bytes` to `path` as one [`AtomicFile`].
+///
+/// # Errors
+/// [`Error::Io`] when the file cannot be written; the target is then unchanged.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
+    let mut f = AtomicFile::create(path)?;
+    f.write_all(bytes).map_err(|e| Error::io(path, e))?;
+    f.commit()
+}
+
+/// The path a write to `path` replaces: a symbolic link's target (relative links resolved
+/// against the link's directory, chains followed), else `path` itself.
+fn resolve(path: &Path) -> PathBuf {
+    let mut p = path.to_path_buf();
+    // A bounded walk: a loop of links is left to the open call to report.
+    for _ in 0..40 {
+        match std::fs::read_link(&p) {
+            Ok(next) => {
+                p = match p.parent() {
+                    Some(dir) if next.is_relative() => dir.join(next),
+                    _ => next,
+                }
+            }
+            Err(_) => break,
+        }
+    }
+    p
+}
+
+/// `.name.<pid>.<n>.tmp` beside `target`, so the final rename stays on one file system.
+fn temp_path(target: &Path) -> PathBuf {
+    let name = target
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "out".into());
+    let n = NEXT_TEMP.fetch_add(1, Ordering::Relaxed);
+    parent(target).join(format!(".{name}.{}.{n}.tmp", std::process::id()))
+}
+
+fn parent(path: &Path) -> &Path {
+    path.parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."))
+}
+
+/// Makes the rename durable. Best effort: some file systems refuse to sync a directory, and
+/// the content itself is already on disk.
+fn sync_dir(target: &Path) {
+    if let Ok(dir) = File::open(parent(target)) {
+        let _ = dir.sync_all();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scratch(name: &str) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!("lw-output-{}-{name}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        dir
+    }
+
+    fn entries(dir: &Path) -> Vec<String> {
+        let mut v: Vec<String> = std::fs::read_dir(dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        v.sort();
+        v
+    }
+
+    #[test]
+    fn an_abandoned_write_leaves_the_old_content_and_no_temp_file() {
+        let dir = scratch("abandon");
+        let path = dir.join("out.csv");
+        std::fs::write(&path, "old").unwrap();
+        {
+            let mut f = AtomicFile::create(&path).unwrap();
+            f.write_all(b"new, half").unwrap();
+        }
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), "old");
+        assert_eq!(entries(&dir), ["out.csv"]);
+        write_atomic(&path, b"new").unwrap();
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), "new");
+        assert_eq!(entries(&dir), ["out.csv"]);
+    }
+
+    #[test]
+    fn a_symlink_is_followed_not_replaced() {
+        let dir = scratch("link");
+        let real = dir.join("real.json");
+        std::fs::write(&real, "old").unwrap();
+        let link = dir.join("link.json");
+        std::os::unix::fs::symlink("real.json", &link).unwrap();
+        write_atomic(&link, b"new").unwrap();
+        assert!(std::fs::symlink_metadata(&link)
+            .unwrap()
+            .file_type()
+            .is_symlink());
+        assert_eq!(std::fs::read_to_string(&real).unwrap(), "new");
+    }
+
+    #[test]
+    fn a_device_is_written_in_place() {
+        write_atomic(Path::new("/dev/null"), b"nothing").unwrap();
+        let meta = std::fs::metadata("/dev/null").unwrap();
+        assert!(!meta.is_file(), "/dev/null must stay a device");
+    }
+
+    #[test]
+    fn a_missing_directory_is_an_error_naming_the_target() {
+        let err = write_atomic(Path::new("/nonexistent-dir/x.json"), b"x").unwrap_err();
+        assert!(err.to_string().contains("/nonexistent-dir/x.json"), "{err}");
+    }
+}

@@ -24,8 +24,7 @@
 //! independent observations (see [`crate::risk`]).
 
 use crate::features::FeatureRow;
-use crate::model::net::{N_HID, N_IN, N_OUT, N_WEIGHTS};
-use crate::model::{HybridModel, Prediction, ResidualNet};
+use crate::model::{HybridModel, Prediction};
 
 /// The dual residuals of one sample. `NaN` marks a residual that is not applicable.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -121,50 +120,6 @@ pub fn net_inputs(x: &FeatureRow) -> (f64, f64, f64) {
     }
 }
 
-/// tanh(x) = 1 − 2/(e^{2x} + 1): within 3e-16 of `f64::tanh` (absolute), three times faster,
-/// and the 32 hidden units of a forward pass are most of the monitor's per-sample cost.
-#[inline]
-fn tanh(x: f64) -> f64 {
-    1.0 - 2.0 / ((2.0 * x).exp() + 1.0)
-}
-
-/// δ(x) = (δU, δF) of the network for the raw inputs (v, λ, a): the same layers as
-/// [`ResidualNet::forward`] with fixed-size blocks and the faster tanh.
-pub fn forward(net: &ResidualNet, v: f64, lambda: f64, a: f64) -> [f64; N_OUT] {
-    let w = net.weights.as_slice();
-    if w.len() != N_WEIGHTS {
-        return net.forward(v, lambda, a);
-    }
-    let x = net.scaled(v, lambda, a);
-    let (w1, rest) = w.split_at(N_HID * N_IN);
-    let (b1, rest) = rest.split_at(N_HID);
-    let (w2, rest) = rest.split_at(N_HID * N_HID);
-    let (b2, rest) = rest.split_at(N_HID);
-    let (w3, b3) = rest.split_at(N_OUT * N_HID);
-    let mut h1 = [0.0; N_HID];
-    for (j, h) in h1.iter_mut().enumerate() {
-        let r = &w1[j * N_IN..(j + 1) * N_IN];
-        *h = tanh(b1[j] + r[0] * x[0] + r[1] * x[1] + r[2] * x[2]);
-    }
-    let mut h2 = [0.0; N_HID];
-    for (j, h) in h2.iter_mut().enumerate() {
-        let r: &[f64; N_HID] = w2[j * N_HID..(j + 1) * N_HID]
-            .try_into()
-            .expect("a row of W2 has N_HID weights");
-        let mut z = b2[j];
-        for i in 0..N_HID {
-            z += r[i] * h1[i];
-        }
-        *h = tanh(z);
-    }
-    let mut y = [0.0; N_OUT];
-    for (k, yk) in y.iter_mut().enumerate() {
-        let r = &w3[k * N_HID..(k + 1) * N_HID];
-        *yk = b3[k] + r.iter().zip(&h2).map(|(a, b)| a * b).sum::<f64>();
-    }
-    [y[0] * net.output_scale[0], y[1] * net.output_scale[1]]
-}
-
 /// Memo of the last network output, keyed by the exact network inputs.
 ///
 /// At standstill the inputs are (0, λ, 0) with λ held from door close, so consecutive
@@ -183,7 +138,7 @@ impl PredictionCache {
         let (v, lambda, a) = net_inputs(x);
         let key = [v.to_bits(), lambda.to_bits(), a.to_bits()];
         if self.key != Some(key) {
-            let [du, df] = forward(&model.net, v, lambda, a);
+            let [du, df] = model.net.forward(v, lambda, a);
             (self.key, self.du, self.df) = (Some(key), du, df);
         }
         model.predict_with(x, [self.du, self.df])
@@ -302,29 +257,6 @@ pub(crate) mod tests {
         x.voltage = f64::NAN;
         let r = Residuals::compute(&m, &x);
         assert!(r.r_u.is_nan() && r.r_f.is_nan() && r.e.is_nan());
-    }
-
-    #[test]
-    fn fast_forward_matches_the_network() {
-        let mut m = test_model();
-        let mut rng = crate::rng::Rng::new(9);
-        for w in &mut m.net.weights {
-            *w = rng.uniform(-1.0, 1.0);
-        }
-        for _ in 0..100 {
-            let (v, l, a) = (
-                rng.uniform(-2.0, 2.0),
-                rng.uniform(0.0, 1.0),
-                rng.uniform(-1.0, 1.0),
-            );
-            let (fast, slow) = (forward(&m.net, v, l, a), m.net.forward(v, l, a));
-            for k in 0..2 {
-                assert!(
-                    (fast[k] - slow[k]).abs() < 1e-12 * (1.0 + slow[k].abs()),
-                    "{fast:?} vs {slow:?}"
-                );
-            }
-        }
     }
 
     #[test]

@@ -73,7 +73,8 @@ impl ResidualNet {
         }
     }
 
-    /// δ(x) = (δU in V, δF in N) for the raw inputs (v, λ, a).
+    /// δ(x) = (δU in V, δF in N) for the raw inputs (v, λ, a), through [`forward_raw`].
+    #[inline]
     pub fn forward(&self, v: f64, lambda: f64, a: f64) -> [f64; N_OUT] {
         let mut cache = NetCache::default();
         let y = forward_raw(&self.weights, self.scaled(v, lambda, a), &mut cache);
@@ -97,21 +98,36 @@ fn tanh(x: f64) -> f64 {
     1.0 - 2.0 / ((2.0 * x).exp() + 1.0)
 }
 
-/// Forward pass on scaled inputs with explicit weights; returns the unscaled outputs y.
+/// Forward pass on scaled inputs with explicit weights; returns the unscaled outputs y and
+/// keeps the activations in `cache` for [`backward_raw`].
+///
+/// The one forward pass of the crate: training, the fit's reports and the monitor all go
+/// through it, so a model is monitored with exactly the arithmetic it was trained with.
+/// Fixed-size blocks let the compiler drop the bounds checks of the inner loops.
+///
+/// # Panics
+/// When `w` does not hold [`N_WEIGHTS`] weights (a model file with another count is refused
+/// when it is read).
+#[inline]
 pub fn forward_raw(w: &[f64], x: [f64; N_IN], cache: &mut NetCache) -> [f64; N_OUT] {
+    let w: &[f64; N_WEIGHTS] = w.try_into().expect("a network has N_WEIGHTS weights");
     cache.x = x;
     for j in 0..N_HID {
         let r = &w[W1 + j * N_IN..W1 + (j + 1) * N_IN];
         cache.h1[j] = tanh(w[B1 + j] + r[0] * x[0] + r[1] * x[1] + r[2] * x[2]);
     }
     for j in 0..N_HID {
-        let r = &w[W2 + j * N_HID..W2 + (j + 1) * N_HID];
+        let r: &[f64; N_HID] = w[W2 + j * N_HID..W2 + (j + 1) * N_HID]
+            .try_into()
+            .expect("a row of W2 has N_HID weights");
         let z: f64 = r.iter().zip(&cache.h1).map(|(a, b)| a * b).sum();
         cache.h2[j] = tanh(w[B2 + j] + z);
     }
     let mut y = [0.0; N_OUT];
     for (k, yk) in y.iter_mut().enumerate() {
-        let r = &w[W3 + k * N_HID..W3 + (k + 1) * N_HID];
+        let r: &[f64; N_HID] = w[W3 + k * N_HID..W3 + (k + 1) * N_HID]
+            .try_into()
+            .expect("a row of W3 has N_HID weights");
         *yk = w[B3 + k] + r.iter().zip(&cache.h2).map(|(a, b)| a * b).sum::<f64>();
     }
     y

@@ -58,10 +58,7 @@ pub struct CalibrationReport {
     pub validated_false_advisories_per_year: f64,
 }
 
-/// Risk settings: accumulator constants and the healthy reference, calibrated by the fit.
-///
-
-/// Settings of [`RiskConfig::calibrate`].
+/// Settings of [`calibrate`].
 #[derive(Clone, Debug, PartialEq)]
 pub struct CalibrationSettings {
     /// Years of healthy operation the bootstrap simulates; the advisory threshold is the
@@ -371,8 +368,6 @@ fn bootstrap_episodes(
     });
     episodes
 }
-
-/// Evidence of one trip: trip-mean residuals and the trip's share of the signature regression.
 
 #[cfg(test)]
 mod tests {

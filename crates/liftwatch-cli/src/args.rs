@@ -28,5 +28,21 @@ pub enum Command {
     Monitor(cmd::monitor::Args),
     /// Compare liftwatch with the threshold baseline, CUSUM and EWMA on a seeded simulated suite.
     Evaluate(cmd::evaluate::Args),
+    /// Write figures (SVG and PNG) and an HTML report about telemetry, read with a fitted model.
     Report(cmd::report::Args),
+}
+
+impl Command {
+    /// Runs the chosen subcommand.
+    pub fn run(self) -> anyhow::Result<()> {
+        match self {
+            Command::Demo(a) => cmd::demo::run(a),
+            Command::Simulate(a) => cmd::simulate::run(a),
+            Command::Align(a) => cmd::align::run(a),
+            Command::Fit(a) => cmd::fit::run(a),
+            Command::Monitor(a) => cmd::monitor::run(a),
+            Command::Evaluate(a) => cmd::evaluate::run(a),
+            Command::Report(a) => cmd::report::run(a),
+        }
+    }
 }

@@ -9,7 +9,7 @@ use clap::Parser;
 
 fn main() -> ExitCode {
     let args = args::Args::parse();
-    let Err(err) = cmd::run(args) else {
+    let Err(err) = args.command.run() else {
         return ExitCode::SUCCESS;
     };
     eprintln!("liftwatch: {err:#}"); // `:#` prints the whole cause chain on one line

@@ -4,3 +4,4 @@ mod evaluate;
 mod features;
 mod monitor;
 mod sim;
+mod tester;

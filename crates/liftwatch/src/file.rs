@@ -29,7 +29,7 @@ pub const FORMAT_VERSION: u32 = 1;
 
 /// The model file as written: field names and order are the file format.
 #[derive(Serialize, Deserialize)]
-pub struct ModelDocument {
+struct ModelDocument {
     format_version: u32,
     elevator: Elevator,
     parameters: PhysParams,
@@ -95,6 +95,18 @@ impl From<ModelDocument> for FittedModel {
             train: d.train,
             summary: d.fit,
         }
+    }
+}
+
+impl Serialize for FittedModel {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
+        ModelDocument::from(self.clone()).serialize(s)
+    }
+}
+
+impl<'de> Deserialize<'de> for FittedModel {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+        ModelDocument::deserialize(d).map(FittedModel::from)
     }
 }
 

@@ -22,12 +22,9 @@ use crate::risk::{trip_evidence, RiskConfig, TripEvidence};
 use crate::sample::AlignedSeries;
 use crate::sensor::SensorLimits;
 
-/// Everything `monitor` needs, as written by `fit` (DATA.md §5).
-#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
-#[serde(
-    into = "crate::file::ModelDocument",
-    from = "crate::file::ModelDocument"
-)]
+/// Everything `monitor` needs, as written by `fit` (DATA.md §5). Its JSON form, the model
+/// file, is defined in [`crate::file`].
+#[derive(Clone, Debug, PartialEq)]
 pub struct FittedModel {
     /// The hybrid model: elevator, θ, network and healthy residual scales.
     pub hybrid: HybridModel,

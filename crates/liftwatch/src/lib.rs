@@ -1,12 +1,19 @@
 //! liftwatch: physics-informed health monitoring of a traction elevator from the 1 Hz
 //! telemetry its controller already logs.
 //!
-//! The pipeline, one module per stage:
+//! The pipeline, one module per stage, declared below in stage order:
 //! raw telemetry ([`ingest`]) → aligned series ([`align`]) → features ([`features`]) →
 //! hybrid model ([`model`]) → dual residuals ([`residual`]) → risk ([`risk`]) →
-//! levels and events ([`alarm`]). [`monitor`] runs the last four as one streaming step;
+//! levels and events ([`alarm`]). [`sensor`] tells a broken sensor from a broken machine;
 //! [`baseline`] is the conventional fixed-threshold method with the same output;
-//! [`sim`] is a seeded traction-elevator simulator that writes raw telemetry.
+//! [`calibrate`] sets the risk thresholds from healthy trips; [`fit`] runs the whole
+//! identification into one artefact, [`fit::FittedModel`], whose file form is [`file`];
+//! [`monitor`] runs stages 3-7 as one streaming step (and [`monitor::run`] as a batch).
+//! [`sim`] is a seeded traction-elevator simulator that writes raw telemetry; [`evaluate`]
+//! the suite that compares the method with the baselines on it.
+//!
+//! Every module imports only the modules declared above it: the fitted artefact and the
+//! calibration come after the stages they configure, so each stage can be used alone.
 //!
 //! ```
 //! # fn main() -> Result<(), liftwatch::Error> {
@@ -30,34 +37,36 @@
 //! # Ok(()) }
 //! ```
 
-// Base: errors, numbers, the sample type, the elevator description, the one writer.
-pub mod elevator;
+// Base: errors, numbers, the sample type, the elevator description, the fault-mode
+// vocabulary, the one writer.
 pub mod error;
 pub mod exact;
 pub mod linalg;
-pub mod mode;
-pub mod output;
 pub mod rng;
 pub mod sample;
+pub mod elevator;
+pub mod mode;
+pub mod output;
 
-// The pipeline, in stage order: each module imports only those above it.
-pub mod alarm;
+// The pipeline, in stage order. Every module imports only modules above it in this list
+// (its tests may use any); `tests/pipeline/layers.rs` checks it.
+pub mod ingest;
 pub mod align;
+pub mod features;
+pub mod model;
+pub mod residual;
+pub mod sensor;
+pub mod risk;
+pub mod alarm;
 pub mod baseline;
 pub mod calibrate;
-pub mod features;
-pub mod file;
 pub mod fit;
-pub mod ingest;
-pub mod model;
+pub mod file;
 pub mod monitor;
-pub mod residual;
-pub mod risk;
-pub mod sensor;
 
 // Around the pipeline: a simulator to test it on, and the evaluation suite.
-pub mod evaluate;
 pub mod sim;
+pub mod evaluate;
 
 pub use elevator::Elevator;
 pub use error::{Error, Result};

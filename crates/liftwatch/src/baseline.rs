@@ -45,6 +45,28 @@ impl Default for BaselineLimits {
 }
 
 impl BaselineLimits {
+    /// Checks the limits a hand-edited model file could break (`f64::MAX` stands for
+    /// "never", an uncalibrated limit).
+    ///
+    /// # Errors
+    /// A message naming the first field out of range.
+    pub fn validate(&self) -> std::result::Result<(), String> {
+        let check = crate::error::check_range;
+        check(
+            "baseline.friction_limit_n",
+            self.friction_limit_n,
+            -1e9,
+            f64::MAX,
+        )?;
+        check(
+            "baseline.voltage_limit_v",
+            self.voltage_limit_v,
+            -1e6,
+            f64::MAX,
+        )?;
+        check("baseline.margin_frac", self.margin_frac, 0.0, 100.0)
+    }
+
     /// The two instantaneous signals of one sample: (friction-force estimate N, voltage above
     /// the motor line V); NaN while not moving or not measurable.
     pub fn signals(model: &HybridModel, x: &FeatureRow) -> (f64, f64) {

@@ -57,7 +57,11 @@ impl Elevator {
     /// [`Error::Io`] when the file cannot be read, [`Error::Elevator`] when it is not valid
     /// TOML, lacks a rated value or holds an implausible one.
     pub fn from_toml_file(path: &Path) -> Result<Self> {
-        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        let text = crate::limits::read_bounded_text(
+            path,
+            crate::limits::MAX_TOML_BYTES,
+            "elevator description",
+        )?;
         Self::from_toml_str(&text).map_err(|why| Error::Elevator {
             path: path.into(),
             why,
@@ -98,15 +102,7 @@ impl Elevator {
     /// # Errors
     /// A message naming the first key out of range.
     pub fn validate(&self) -> std::result::Result<(), String> {
-        let check = |name: &str, v: f64, lo: f64, hi: f64| {
-            if v.is_finite() && (lo..=hi).contains(&v) {
-                Ok(())
-            } else {
-                Err(format!(
-                    "`{name}` = {v} is out of range, expected {lo} to {hi}"
-                ))
-            }
-        };
+        let check = crate::error::check_range;
         check("rated_load_kg", self.rated_load_kg, 100.0, 10_000.0)?;
         check("rated_speed_mps", self.rated_speed_mps, 0.1, 12.0)?;
         check("floors", f64::from(self.floors), 2.0, 200.0)?;

@@ -26,7 +26,7 @@ pub enum Error {
         path: PathBuf,
     },
     /// The file is empty or holds no usable row.
-    #[error("{}: no usable data: {why}", .path.display())]
+    #[error("{}: no usable data: {}", .path.display(), clip(.why))]
     NoData {
         /// The file concerned.
         path: PathBuf,
@@ -34,7 +34,7 @@ pub enum Error {
         why: String,
     },
     /// A configuration value is out of its range.
-    #[error("invalid setting `{field}`: {why}")]
+    #[error("invalid setting `{field}`: {}", clip(.why))]
     InvalidConfig {
         /// The setting's name.
         field: &'static str,
@@ -42,7 +42,7 @@ pub enum Error {
         why: String,
     },
     /// The elevator description could not be read.
-    #[error("{}: {why}", .path.display())]
+    #[error("{}: {}", .path.display(), clip(.why))]
     Elevator {
         /// The file concerned.
         path: PathBuf,
@@ -62,7 +62,7 @@ pub enum Error {
         need_trips: usize,
     },
     /// The data cannot determine the model (no standstill, constant load, one direction, ...).
-    #[error("cannot fit: {0}")]
+    #[error("cannot fit: {}", clip(.0))]
     Unidentifiable(String),
     /// The model file was written by a format this build does not read.
     #[error("{}: model format version {found} is not supported (this build reads {supported})", .path.display())]
@@ -75,7 +75,7 @@ pub enum Error {
         supported: u32,
     },
     /// The model or state file is not a valid document of its kind.
-    #[error("{}: not a valid {what}: {why}", .path.display())]
+    #[error("{}: not a valid {what}: {}", .path.display(), clip(.why))]
     BadDocument {
         /// The file concerned.
         path: PathBuf,
@@ -85,7 +85,7 @@ pub enum Error {
         why: String,
     },
     /// A monitor state belongs to another model or is out of sequence.
-    #[error("state does not fit: {0}")]
+    #[error("state does not fit: {}", clip(.0))]
     StateMismatch(String),
 }
 
@@ -98,6 +98,70 @@ impl Error {
         Error::Io {
             path: path.into(),
             err: source,
+        }
+    }
+}
+
+/// The longest explanation an error message carries (characters): a parser's complaint can
+/// quote its input, and a hostile input can be megabytes long; one line stays readable.
+pub const MAX_WHY_CHARS: usize = 240;
+
+/// `why` cut to [`MAX_WHY_CHARS`] characters, with `…` where it was cut, and on one line.
+pub fn clip(why: &str) -> String {
+    let one_line: String = why
+        .chars()
+        .map(|c| if c.is_control() { ' ' } else { c })
+        .take(MAX_WHY_CHARS + 1)
+        .collect();
+    if one_line.chars().count() > MAX_WHY_CHARS {
+        let mut cut: String = one_line.chars().take(MAX_WHY_CHARS).collect();
+        cut.push('…');
+        cut
+    } else {
+        one_line
+    }
+}
+
+/// `Ok` when `v` is finite and within `lo..=hi`, else a message naming `field` and the range:
+/// the one range check of every settings validation.
+///
+/// # Errors
+/// The message, for the caller to wrap in its own error.
+pub fn check_range(field: &str, v: f64, lo: f64, hi: f64) -> std::result::Result<(), String> {
+    if v.is_finite() && (lo..=hi).contains(&v) {
+        Ok(())
+    } else {
+        Err(format!(
+            "`{field}` = {} is out of range, expected {lo} to {hi}",
+            clip(&v.to_string())
+        ))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_long_complaint_is_cut_to_one_short_line() {
+        let long = format!("bad value `{}`\nsecond line", "x".repeat(10_000));
+        let err = Error::BadDocument {
+            path: "m.json".into(),
+            what: "liftwatch model",
+            why: long,
+        };
+        let text = err.to_string();
+        assert!(text.chars().count() < MAX_WHY_CHARS + 60, "{}", text.len());
+        assert!(!text.contains('\n') && text.ends_with('…'));
+        assert_eq!(clip("short"), "short");
+    }
+
+    #[test]
+    fn ranges_refuse_non_finite_and_outside_values() {
+        assert!(check_range("kd", 0.5, 0.0, 1.0).is_ok());
+        for v in [f64::NAN, f64::INFINITY, -1.0, 1e308] {
+            let msg = check_range("kd", v, 0.0, 1.0).unwrap_err();
+            assert!(msg.starts_with("`kd` ="), "{msg}");
         }
     }
 }

@@ -15,7 +15,7 @@ use serde::{Deserialize, Serialize};
 use crate::baseline::BaselineLimits;
 use crate::calibrate::CalibrationReport;
 use crate::elevator::Elevator;
-use crate::error::{Error, Result};
+use crate::error::{check_range, Error, Result};
 use crate::features::FeatureConfig;
 use crate::fit::FittedModel;
 use crate::model::net::N_WEIGHTS;
@@ -110,11 +110,18 @@ impl<'de> Deserialize<'de> for FittedModel {
     }
 }
 
-/// Writes the model atomically (see [`write_atomic`]).
+/// Writes the model atomically (see [`write_atomic`]), after the same checks a reader makes,
+/// so no build writes a model that no build reads.
 ///
 /// # Errors
-/// [`Error::Io`] when the file cannot be written.
+/// [`Error::BadDocument`] for a model that fails the checks; [`Error::Io`] when the file
+/// cannot be written.
 pub fn save(path: &Path, model: &FittedModel) -> Result<()> {
+    check(model).map_err(|why| Error::BadDocument {
+        path: path.into(),
+        what: "liftwatch model",
+        why,
+    })?;
     let text = serde_json::to_string_pretty(model).map_err(|e| Error::BadDocument {
         path: path.into(),
         what: "model",
@@ -129,7 +136,8 @@ pub fn save(path: &Path, model: &FittedModel) -> Result<()> {
 /// [`Error::Io`] when it cannot be read, [`Error::ModelVersion`] for another format version,
 /// [`Error::BadDocument`] when it is not a complete, sane model.
 pub fn load(path: &Path) -> Result<FittedModel> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let text =
+        crate::limits::read_bounded_text(path, crate::limits::MAX_MODEL_BYTES, "liftwatch model")?;
     parse(&text).map_err(|e| match e {
         ParseError::Version(found) => Error::ModelVersion {
             path: path.into(),
@@ -168,41 +176,82 @@ fn parse(text: &str) -> std::result::Result<FittedModel, ParseError> {
     Ok(model)
 }
 
-fn check(m: &FittedModel) -> std::result::Result<(), String> {
-    let m = &m.hybrid;
+/// Checks a parsed model for sense, not only syntax: every parameter and setting finite and
+/// within a range derived from the elevator description (a finite but absurd value would make
+/// the monitor blind or alarmed from the first trip, or a report's axis endless).
+fn check(model: &FittedModel) -> std::result::Result<(), String> {
+    let m = &model.hybrid;
     m.elevator.validate()?;
-    for (name, v) in PhysParams::NAMES.iter().zip(m.parameters.to_array()) {
-        if !v.is_finite() {
-            return Err(format!(
-                "parameter `{name}` is {v}, expected a finite number"
-            ));
-        }
-    }
-    let p = &m.parameters;
-    if !(p.kd > 0.0 && p.alpha_down > 0.0) {
-        return Err("parameters `kd` and `alpha_down` must be positive".into());
-    }
+    check_parameters(&m.parameters, &m.elevator)?;
     if m.net.weights.len() != N_WEIGHTS || m.net.weights.iter().any(|w| !w.is_finite()) {
         return Err(format!(
             "network has {} weights, expected {N_WEIGHTS} finite numbers",
             m.net.weights.len()
         ));
     }
-    if m.net
-        .input_scale
-        .iter()
-        .chain(&m.net.output_scale)
-        .any(|s| !(s.is_finite() && *s > 0.0))
-    {
-        return Err("network scales must be positive".into());
+    if m.net.weights.iter().any(|w| w.abs() > MAX_WEIGHT) {
+        return Err(format!(
+            "a network weight exceeds {MAX_WEIGHT:e} in magnitude"
+        ));
     }
-    let s = &m.scales;
-    if !(s.sigma_u_v > 0.0
-        && s.sigma_f_n > 0.0
-        && s.sigma_u_v.is_finite()
-        && s.sigma_f_n.is_finite())
-    {
-        return Err("residual scales must be positive".into());
+    for &s in m.net.input_scale.iter().chain(&m.net.output_scale) {
+        check_range("net scales", s, 1e-9, 1e9)
+            .map_err(|_| "network scales must be positive".to_string())?;
     }
-    Ok(())
+    let (volts, newtons) = scales_of(&m.elevator);
+    check_range("scales.sigma_u_v", m.scales.sigma_u_v, 1e-9 * volts, volts)
+        .map_err(|e| format!("residual scales must be positive: {e}"))?;
+    check_range(
+        "scales.sigma_f_n",
+        m.scales.sigma_f_n,
+        1e-9 * newtons,
+        newtons,
+    )
+    .map_err(|e| format!("residual scales must be positive: {e}"))?;
+    model.features.validate().map_err(|e| e.to_string())?;
+    model.risk.validate().map_err(|e| e.to_string())?;
+    model.sensor.validate()?;
+    model.baseline.validate()
 }
+
+/// Largest magnitude of a network weight: inputs and outputs are scaled to order one, so a
+/// trained weight of a million is a corrupted file.
+const MAX_WEIGHT: f64 = 1e6;
+
+/// The voltage and force scales of an elevator: its rated voltage (V), and the weight of the
+/// car with rated load (N), the largest force its drive plausibly sees.
+fn scales_of(e: &Elevator) -> (f64, f64) {
+    let weight = (e.car_mass() + e.rated_load_kg) * crate::elevator::G;
+    (e.rated_voltage(), weight)
+}
+
+/// Each identified parameter within a plausible range of the described elevator; a fit that
+/// ends outside one is refused when written, not only when read.
+fn check_parameters(p: &PhysParams, e: &Elevator) -> std::result::Result<(), String> {
+    for (name, v) in PhysParams::NAMES.iter().zip(p.to_array()) {
+        if !v.is_finite() {
+            return Err(format!(
+                "parameter `{name}` is {v}, expected a finite number"
+            ));
+        }
+    }
+    if !(p.kd > 0.0 && p.alpha_down > 0.0) {
+        return Err("parameters `kd` and `alpha_down` must be positive".into());
+    }
+    let (volts, newtons) = scales_of(e);
+    let mass = e.car_mass() + e.rated_load_kg;
+    // Generous bounds: ten times what a working drive of this description can show.
+    let bound = PLAUSIBILITY_FACTOR;
+    check_range("delta_m", p.delta_m, -bound * mass, bound * mass)?;
+    check_range("m0", p.m0, -bound * mass, bound * bound * mass)?;
+    check_range("m_rope", p.m_rope, -bound * mass, bound * mass)?;
+    check_range("f_c", p.f_c, 0.0, bound * newtons)?;
+    check_range("c_visc", p.c_visc, 0.0, bound * newtons / e.rated_speed_mps)?;
+    check_range("kd", p.kd, 0.0, bound * volts / newtons)?;
+    check_range("ke", p.ke, 0.0, bound * volts / e.rated_speed_mps)?;
+    check_range("u0", p.u0, -bound * volts, bound * volts)?;
+    check_range("alpha_down", p.alpha_down, 0.0, bound)
+}
+
+/// How far beyond the elevator's own scales a parameter may lie before the file is refused.
+const PLAUSIBILITY_FACTOR: f64 = 10.0;

@@ -44,6 +44,7 @@ pub mod exact;
 pub mod linalg;
 pub mod rng;
 pub mod sample;
+pub mod limits;
 pub mod elevator;
 pub mod mode;
 pub mod output;

@@ -219,6 +219,10 @@ pub struct MonitorState {
     episode_mode: FaultMode,
     /// Samples seen.
     pub samples: u64,
+    /// Time of the last sample seen (s), NaN before the first: input at or before it was
+    /// already watched, and a run that feeds it again would count it twice.
+    #[serde(with = "crate::exact", default = "nan")]
+    pub last_time: f64,
     /// Complete trips seen.
     pub trips: u64,
     /// Trips refused as sensor-implausible.
@@ -234,7 +238,8 @@ impl MonitorState {
     /// [`Error::Io`] when unreadable, [`Error::BadDocument`] when it is not a monitor state
     /// of this version.
     pub fn load(path: &Path) -> Result<MonitorState> {
-        let text = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+        let text =
+            crate::limits::read_bounded(path, crate::limits::MAX_STATE_BYTES, "monitor state")?;
         let bad = |why: String| Error::BadDocument {
             path: path.into(),
             what: "monitor state",
@@ -266,6 +271,11 @@ impl MonitorState {
     }
 }
 
+/// Default of [`MonitorState::last_time`] for states written before it was recorded.
+fn nan() -> f64 {
+    f64::NAN
+}
+
 /// The streaming monitor: one aligned sample in, the row of the sample the feature tracker
 /// releases out.
 #[derive(Clone, Debug)]
@@ -293,6 +303,7 @@ impl Monitor {
             baseline: Baseline::default(),
             episode_mode: FaultMode::Unknown,
             samples: 0,
+            last_time: f64::NAN,
             trips: 0,
             implausible_trips: 0,
             events: 0,
@@ -344,7 +355,8 @@ impl Monitor {
     /// Feeds one aligned sample; returns the row of the sample the feature tracker releases
     /// (the previous one: the tracker lags one sample).
     pub fn push(&mut self, x: &Sample) -> Option<MonitorRow> {
-        self.st.samples += 1;
+        self.st.samples = self.st.samples.saturating_add(1);
+        self.st.last_time = x.time;
         self.st.sensor.sample(
             x,
             &self.model.sensor,
@@ -411,7 +423,7 @@ impl Monitor {
     /// Closes the evidence of a reported trip and feeds the risk stage when plausible.
     fn end_trip(&mut self, t: &Trip) {
         let st = &mut self.st;
-        st.trips += 1;
+        st.trips = st.trips.saturating_add(1);
         let plausible = st.sensor.trip(
             t,
             &self.model.sensor,
@@ -427,7 +439,7 @@ impl Monitor {
         if plausible {
             st.risk.push(&self.model.risk, &ev);
         } else {
-            st.implausible_trips += 1;
+            st.implausible_trips = st.implausible_trips.saturating_add(1);
         }
     }
 
@@ -449,7 +461,7 @@ impl Monitor {
                 risk: a.risk,
                 evidence,
             });
-            st.events += 1;
+            st.events = st.events.saturating_add(1);
         }
         MonitorRow {
             time: x.time,
@@ -474,7 +486,7 @@ impl Monitor {
             .baseline
             .push(&self.model.hybrid, &self.model.baseline, x);
         if v.event.is_some() {
-            self.st.events += 1;
+            self.st.events = self.st.events.saturating_add(1);
         }
         MonitorRow {
             time: x.time,

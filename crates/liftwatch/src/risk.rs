@@ -182,7 +182,9 @@ impl RiskConfig {
         acc.r
     }
 
-    /// Checks the settings a hand-edited model file could break.
+    /// Checks the settings a hand-edited model file could break: every number finite and in a
+    /// range where the tracker means something (an absurd τ or threshold would make the
+    /// monitor blind, or in alarm from the first trip).
     ///
     /// # Errors
     /// [`Error::InvalidConfig`] naming the first field out of range.
@@ -205,15 +207,67 @@ impl RiskConfig {
         if !(10.0..=1e9).contains(&self.forgetting_trips) {
             return bad("risk.forgetting_trips", "expected at least 10 trips");
         }
-        if !(self.advisory > 0.0 && self.alarm >= self.advisory) {
-            return bad("risk.alarm", "expected 0 < advisory <= alarm");
+        if !(self.advisory > 0.0 && self.alarm >= self.advisory && self.alarm <= MAX_RISK) {
+            return bad("risk.alarm", "expected 0 < advisory <= alarm <= 1e12");
         }
         if !(self.release_ratio > 0.0 && self.release_ratio < 1.0) {
             return bad("risk.release_ratio", "expected between 0 and 1");
         }
+        let range = |field: &'static str, v: f64, lo: f64, hi: f64| {
+            crate::error::check_range(field, v, lo, hi)
+                .map_err(|why| Error::InvalidConfig { field, why })
+        };
+        // c = ln(1 + e) of a healthy trip lies within a few units; τ beyond 50 means e^50.
+        range("risk.tau", self.tau, 0.0, MAX_TAU)?;
+        for (&t, &a) in self.tau_modes.iter().zip(&self.advisory_modes) {
+            range("risk.tau_modes", t, 0.0, MAX_TAU)?;
+            range("risk.advisory_modes", a, f64::MIN_POSITIVE, MAX_RISK)?;
+        }
+        for v in self.trip_spread_u.iter().chain(&self.trip_spread_f) {
+            range("risk.trip_spread", *v, 0.0, MAX_SPREAD)?;
+        }
+        if self.trip_spread_u.iter().sum::<f64>() <= 0.0
+            || self.trip_spread_f.iter().sum::<f64>() <= 0.0
+        {
+            return bad("risk.trip_spread", "expected a positive healthy spread");
+        }
+        for m in 0..N_MODES {
+            range(
+                "risk.healthy_coef",
+                self.healthy_coef[m],
+                -MAX_COEF,
+                MAX_COEF,
+            )?;
+            range("risk.drift_sd", self.drift_sd[m], 1e-9, MAX_COEF)?;
+            range("risk.se_scale", self.se_scale[m], 1e-3, 1e3)?;
+        }
+        for v in self.prior_info {
+            range("risk.prior_info", v, -1e30, 1e30)?;
+        }
+        range("risk.prior_s2", self.prior_s2, 1e-300, 1e30)?;
+        range("risk.dominance", self.dominance, 1.0, 1e3)?;
+        range(
+            "risk.min_trip_samples",
+            f64::from(self.min_trip_samples),
+            1.0,
+            1e4,
+        )?;
         Ok(())
     }
 }
+
+/// Highest risk threshold a model may carry: far above anything a bootstrap sets (thousands),
+/// far below where the accumulator loses its resolution.
+const MAX_RISK: f64 = 1e12;
+
+/// Highest boundary τ of c = ln(1 + e): e^50 is no residual any sensor can produce.
+const MAX_TAU: f64 = 50.0;
+
+/// Highest healthy variance of a trip-mean scaled residual (its units are σ²).
+const MAX_SPREAD: f64 = 1e6;
+
+/// Largest signature coefficient or drift (relative units: 1e3 is a thousandfold change).
+const MAX_COEF: f64 = 1e3;
 
 /// Evidence of one trip: trip-mean residuals and the trip's share of the signature regression.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

@@ -5,7 +5,8 @@
 //!              speed above the motion threshold for longer than max_trip_s → speed stuck
 //!              the load at door close bit-identical for stuck_load_cycles  → load cell stuck
 //!              a floor change after 10 s of standstill                     → implausible
-//! per trip:    the load left [min_load_pct, max_load_pct]; the trip lasted longer than any
+//! per trip:    the load left [min_load_pct, max_load_pct], or a voltage or speed reading left
+//!              physics (above 10 kV, above 50 m/s); the trip lasted longer than any
 //!              healthy trip; a fast trip that did not change the floor; a trip that started on
 //!              another floor than the previous one ended                   → implausible
 //! score = 0.9·score + 0.1·implausible           exponential average over ~10 trips
@@ -17,6 +18,14 @@
 use serde::{Deserialize, Serialize};
 
 use crate::exact;
+
+/// A motor voltage reading above this is no drive's (elevator drives run at up to about 1 kV):
+/// the sensor or the logger is broken, and the trip is not machine evidence. It also keeps
+/// squares of residuals far from overflow.
+pub const MAX_PLAUSIBLE_VOLTAGE_V: f64 = 10_000.0;
+
+/// A speed reading above this is no elevator's (the fastest run at about 20 m/s).
+pub const MAX_PLAUSIBLE_SPEED_MPS: f64 = 50.0;
 use crate::features::Trip;
 use crate::sample::Sample;
 
@@ -39,6 +48,43 @@ pub struct SensorLimits {
     /// Fraction of recent trips (exponential average over ~10 trips) that must be implausible
     /// to report `sensor`.
     pub implausible_fraction: f64,
+}
+
+impl SensorLimits {
+    /// Checks the limits a hand-edited model file could break.
+    ///
+    /// # Errors
+    /// A message naming the first field out of range.
+    pub fn validate(&self) -> std::result::Result<(), String> {
+        let check = crate::error::check_range;
+        check("sensor.min_load_pct", self.min_load_pct, -1000.0, 1000.0)?;
+        check(
+            "sensor.max_load_pct",
+            self.max_load_pct,
+            self.min_load_pct,
+            1000.0,
+        )?;
+        check("sensor.max_trip_s", self.max_trip_s, 1.0, 86_400.0)?;
+        check(
+            "sensor.floor_change_speed_mps",
+            self.floor_change_speed_mps,
+            0.0,
+            20.0,
+        )?;
+        check(
+            "sensor.stuck_load_cycles",
+            f64::from(self.stuck_load_cycles),
+            1.0,
+            1e6,
+        )?;
+        check("sensor.missing_limit_s", self.missing_limit_s, 1.0, 1e7)?;
+        check(
+            "sensor.implausible_fraction",
+            self.implausible_fraction,
+            0.01,
+            1.0,
+        )
+    }
 }
 
 impl Default for SensorLimits {
@@ -156,7 +202,12 @@ impl SensorCheck {
         if any {
             self.missing = missing;
         }
-        if x.load.is_finite() && !(cfg.min_load_pct..=cfg.max_load_pct).contains(&x.load) {
+        let load_bad =
+            x.load.is_finite() && !(cfg.min_load_pct..=cfg.max_load_pct).contains(&x.load);
+        let voltage_bad = x.voltage.abs() > MAX_PLAUSIBLE_VOLTAGE_V;
+        let speed_bad = x.speed.abs() > MAX_PLAUSIBLE_SPEED_MPS;
+        if load_bad || voltage_bad || speed_bad {
+            // Named for the load cell, its first use; any channel out of physics counts.
             self.load_out_of_range = true;
         }
         if x.door.is_finite() {

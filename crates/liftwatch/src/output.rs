@@ -65,6 +65,31 @@ impl AtomicFile {
         &self.target
     }
 
+    /// Forgets everything written so far, to write the content again from the start (the
+    /// aligner replays its input when a row comes later than its reorder window).
+    ///
+    /// # Errors
+    /// [`Error::Io`] when the temporary file cannot be truncated, or when the target is a
+    /// device or FIFO, whose bytes are already gone.
+    pub fn restart(&mut self) -> Result<()> {
+        use std::io::Seek;
+        let target = self.target.clone();
+        if self.temp.is_none() {
+            return Err(Error::io(
+                &target,
+                io::Error::other("cannot rewrite a stream output (input rows came too late to stream: sort the input or write to a file)"),
+            ));
+        }
+        let result = (|| {
+            self.out.flush()?;
+            let f = self.out.get_mut();
+            f.set_len(0)?;
+            f.rewind()?;
+            Ok(())
+        })();
+        result.map_err(|e: io::Error| Error::io(&target, e))
+    }
+
     /// Flushes, syncs and moves the content into place.
     ///
     /// # Errors
@@ -116,6 +141,59 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     let mut f = AtomicFile::create(path)?;
     f.write_all(bytes).map_err(|e| Error::io(path, e))?;
     f.commit()
+}
+
+/// One file argument of a command: its flag, its path and whether the command writes it.
+#[derive(Clone, Copy, Debug)]
+pub struct FileArg<'a> {
+    /// The flag that names it, e.g. `--out`.
+    pub flag: &'a str,
+    /// The path given.
+    pub path: &'a Path,
+    /// True for an output.
+    pub output: bool,
+}
+
+/// Refuses a command whose outputs name one of its inputs or each other (after following
+/// symbolic links and `..`): `--input X --out X` would replace the input, `--state` equal to
+/// `--out` would lose the state. Devices and FIFOs may repeat (`/dev/null` twice is fine).
+///
+/// # Errors
+/// A one-line message naming both flags.
+pub fn check_distinct(args: &[FileArg]) -> std::result::Result<(), String> {
+    let key = |p: &Path| -> Option<PathBuf> {
+        let target = resolve(p);
+        if std::fs::metadata(&target).is_ok_and(|m| !m.is_file()) {
+            return None;
+        }
+        let name = target.file_name()?;
+        let dir = std::fs::canonicalize(parent(&target)).ok()?;
+        Some(dir.join(name))
+    };
+    let keys: Vec<Option<PathBuf>> = args.iter().map(|a| key(a.path)).collect();
+    for (i, a) in args.iter().enumerate() {
+        for (j, b) in args.iter().enumerate().skip(i + 1) {
+            if !(a.output || b.output) {
+                continue;
+            }
+            if let (Some(ka), Some(kb)) = (&keys[i], &keys[j]) {
+                if ka == kb {
+                    return Err(format!(
+                        "{} and {} name the same file {}: an output would replace {}",
+                        a.flag,
+                        b.flag,
+                        b.path.display(),
+                        if a.output && b.output {
+                            "another output"
+                        } else {
+                            "an input"
+                        }
+                    ));
+                }
+            }
+        }
+    }
+    Ok(())
 }
 
 /// The path a write to `path` replaces: a symbolic link's target (relative links resolved
@@ -198,6 +276,20 @@ mod tests {
     }
 
     #[test]
+    fn a_restart_forgets_what_was_written() {
+        let dir = scratch("restart");
+        let path = dir.join("rows.csv");
+        let mut f = AtomicFile::create(&path).unwrap();
+        f.write_all(b"first attempt, longer\n").unwrap();
+        f.restart().unwrap();
+        f.write_all(b"again\n").unwrap();
+        f.commit().unwrap();
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), "again\n");
+        let mut dev = AtomicFile::create(Path::new("/dev/null")).unwrap();
+        assert!(dev.restart().is_err(), "a device cannot be rewound");
+    }
+
+    #[test]
     fn a_symlink_is_followed_not_replaced() {
         let dir = scratch("link");
         let real = dir.join("real.json");
@@ -210,6 +302,26 @@ mod tests {
             .file_type()
             .is_symlink());
         assert_eq!(std::fs::read_to_string(&real).unwrap(), "new");
+    }
+
+    #[test]
+    fn an_output_naming_an_input_or_another_output_is_refused() {
+        let dir = scratch("distinct");
+        let input = dir.join("in.csv");
+        std::fs::write(&input, "x").unwrap();
+        let arg = |flag, path, output| FileArg { flag, path, output };
+        let same = dir.join("sub/../in.csv");
+        std::fs::create_dir_all(dir.join("sub")).unwrap();
+        let err = check_distinct(&[arg("--input", &input, false), arg("--out", &same, true)])
+            .unwrap_err();
+        assert!(err.contains("--input and --out"), "{err}");
+        let out = dir.join("out.csv");
+        assert!(check_distinct(&[arg("--out", &out, true), arg("--state", &out, true)]).is_err());
+        assert!(check_distinct(&[arg("--input", &input, false), arg("--out", &out, true)]).is_ok());
+        let null = Path::new("/dev/null");
+        assert!(check_distinct(&[arg("--out", null, true), arg("--events", null, true)]).is_ok());
+        // Two inputs may be the same file.
+        assert!(check_distinct(&[arg("--a", &input, false), arg("--b", &input, false)]).is_ok());
     }
 
     #[test]

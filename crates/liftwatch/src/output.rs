@@ -143,6 +143,89 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     f.commit()
 }
 
+/// A directory of outputs written as a unit: files go into a temporary directory beside the
+/// target, and [`AtomicDir::commit`] moves them in. A new target directory appears whole (one
+/// rename); into an existing one each file is renamed over its namesake, so every file is
+/// whole, and files of the target that the run does not write are left alone.
+#[derive(Debug)]
+pub struct AtomicDir {
+    target: PathBuf,
+    temp: Option<PathBuf>,
+}
+
+impl AtomicDir {
+    /// Creates the temporary directory for `target`.
+    ///
+    /// # Errors
+    /// [`Error::Io`] when it cannot be created (a missing parent, no permission).
+    pub fn create(target: &Path) -> Result<AtomicDir> {
+        let target = resolve(target);
+        if target.exists() && !target.is_dir() {
+            return Err(Error::io(
+                &target,
+                io::Error::other("exists and is not a directory"),
+            ));
+        }
+        let temp = PathBuf::from(format!("{}dir", temp_path(&target).display()));
+        std::fs::create_dir(&temp).map_err(|e| Error::io(&target, e))?;
+        Ok(AtomicDir {
+            target,
+            temp: Some(temp),
+        })
+    }
+
+    /// Where to write the files now (the temporary directory).
+    pub fn path(&self) -> &Path {
+        self.temp.as_deref().unwrap_or(&self.target)
+    }
+
+    /// The directory the files end up in.
+    pub fn target(&self) -> &Path {
+        &self.target
+    }
+
+    /// Syncs every file and moves them into the target.
+    ///
+    /// # Errors
+    /// [`Error::Io`] when a file cannot be synced or moved.
+    pub fn commit(mut self) -> Result<()> {
+        let Some(temp) = self.temp.clone() else {
+            return Ok(());
+        };
+        let target = self.target.clone();
+        let result = (|| -> io::Result<()> {
+            let mut names = Vec::new();
+            for e in std::fs::read_dir(&temp)? {
+                let e = e?;
+                if e.file_type()?.is_file() {
+                    File::open(e.path())?.sync_all()?;
+                }
+                names.push(e.file_name());
+            }
+            if !target.exists() {
+                std::fs::rename(&temp, &target)?;
+                self.temp = None;
+            } else {
+                for n in names {
+                    std::fs::rename(temp.join(&n), target.join(&n))?;
+                }
+                sync_dir(&target.join("x"));
+            }
+            sync_dir(&target);
+            Ok(())
+        })();
+        result.map_err(|e| Error::io(&target, e))
+    }
+}
+
+impl Drop for AtomicDir {
+    fn drop(&mut self) {
+        if let Some(temp) = self.temp.take() {
+            let _ = std::fs::remove_dir_all(temp);
+        }
+    }
+}
+
 /// One file argument of a command: its flag, its path and whether the command writes it.
 #[derive(Clone, Copy, Debug)]
 pub struct FileArg<'a> {
@@ -322,6 +405,38 @@ mod tests {
         assert!(check_distinct(&[arg("--out", null, true), arg("--events", null, true)]).is_ok());
         // Two inputs may be the same file.
         assert!(check_distinct(&[arg("--a", &input, false), arg("--b", &input, false)]).is_ok());
+    }
+
+    #[test]
+    fn a_directory_appears_whole_or_keeps_its_old_files() {
+        let dir = scratch("dir");
+        let target = dir.join("report");
+        {
+            let d = AtomicDir::create(&target).unwrap();
+            std::fs::write(d.path().join("a.svg"), "half").unwrap();
+        }
+        assert!(!target.exists(), "an abandoned directory leaves nothing");
+        assert_eq!(entries(&dir), Vec::<String>::new());
+        let d = AtomicDir::create(&target).unwrap();
+        std::fs::write(d.path().join("a.svg"), "new").unwrap();
+        d.commit().unwrap();
+        assert_eq!(
+            std::fs::read_to_string(target.join("a.svg")).unwrap(),
+            "new"
+        );
+        std::fs::write(target.join("mine.txt"), "keep").unwrap();
+        let d = AtomicDir::create(&target).unwrap();
+        std::fs::write(d.path().join("a.svg"), "newer").unwrap();
+        d.commit().unwrap();
+        assert_eq!(
+            std::fs::read_to_string(target.join("a.svg")).unwrap(),
+            "newer"
+        );
+        assert_eq!(
+            std::fs::read_to_string(target.join("mine.txt")).unwrap(),
+            "keep"
+        );
+        assert_eq!(entries(&dir), ["report"]);
     }
 
     #[test]

@@ -10,6 +10,7 @@ use std::path::PathBuf;
 use anyhow::Context;
 use liftwatch::align::{read_series, AlignConfig};
 use liftwatch::file;
+use liftwatch::output::{AtomicDir, FileArg};
 use liftwatch_report::{write_report, Analysis};
 
 /// Flags of `liftwatch report`.
@@ -31,6 +32,24 @@ pub struct Args {
 
 /// Runs `report` and prints the path of `index.html`.
 pub fn run(args: Args) -> anyhow::Result<()> {
+    liftwatch::output::check_distinct(&[
+        FileArg {
+            flag: "--model",
+            path: &args.model,
+            output: false,
+        },
+        FileArg {
+            flag: "--input",
+            path: &args.input,
+            output: false,
+        },
+        FileArg {
+            flag: "--out",
+            path: &args.out,
+            output: true,
+        },
+    ])
+    .map_err(anyhow::Error::msg)?;
     let model = file::load(&args.model).context("cannot use the model")?;
     let (series, ingest) = read_series(&args.input, &AlignConfig::default())
         .with_context(|| format!("cannot read {}", args.input.display()))?;
@@ -51,12 +70,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         || args.input.display().to_string(),
         |n| n.to_string_lossy().into_owned(),
     );
-    let written = write_report(&args.out, &analysis.inputs(&model, &series, &source))
-        .with_context(|| format!("cannot write the report to {}", args.out.display()))?;
-    let index = written
-        .last()
-        .cloned()
-        .unwrap_or_else(|| args.out.join("index.html"));
-    println!("{}", index.display());
+    // Written into a temporary directory and moved in at the end: a failure (a full disk) leaves
+    // no half-written figure behind.
+    let cannot_write = || format!("cannot write the report to {}", args.out.display());
+    let dir = AtomicDir::create(&args.out).with_context(cannot_write)?;
+    write_report(dir.path(), &analysis.inputs(&model, &series, &source))
+        .with_context(cannot_write)?;
+    dir.commit().with_context(cannot_write)?;
+    println!("{}", args.out.join("index.html").display());
     Ok(())
 }

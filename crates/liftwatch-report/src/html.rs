@@ -1,25 +1,10 @@
 //! `index.html`: the figures in order, each with its sentences; plain HTML and inline CSS, so
 //! the directory can be opened, copied or mailed as it is.
 
-use crate::figures::Section;
+use crate::section::{escape, Section};
 use crate::ReportInputs;
 
-/// Escapes text for HTML element content and attribute values.
-pub(crate) fn escape(s: &str) -> String {
-    let mut out = String::with_capacity(s.len());
-    for ch in s.chars() {
-        match ch {
-            '&' => out.push_str("&amp;"),
-            '<' => out.push_str("&lt;"),
-            '>' => out.push_str("&gt;"),
-            '"' => out.push_str("&quot;"),
-            '\'' => out.push_str("&#39;"),
-            c => out.push(c),
-        }
-    }
-    out
-}
-
+/// The page's inline CSS: one column, readable line length, plain tables.
 const STYLE: &str = "body{font-family:'DejaVu Sans',Helvetica,Arial,sans-serif;max-width:1240px;margin:2em auto;\
 padding:0 1em;color:#222;line-height:1.5}h1{font-size:1.7em;margin-bottom:.2em}h2{font-size:1.3em;margin-top:2.2em;\
 border-bottom:1px solid #ccc;padding-bottom:.2em}img{width:100%;height:auto;border:1px solid #e4e4e4}\

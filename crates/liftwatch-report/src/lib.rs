@@ -42,6 +42,7 @@
 mod figures;
 mod html;
 pub mod plot;
+mod section;
 
 use std::path::{Path, PathBuf};
 

@@ -44,7 +44,6 @@
 //! Deviation from the paper: the paper's "smoothing" of Δv/Δt is the central difference itself
 //! (a 2Δt box filter on a); no causal smoother is added on top because it would delay a_v
 //! against the load path and the voltage.
-
 //!
 //! The files: `tracker.rs` is the streaming step [`FeatureTracker`] and `pre.rs` what it keeps
 //! of a sample on arrival; `accel.rs` the two acceleration paths, the phase and the fusion;

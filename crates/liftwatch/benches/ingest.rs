@@ -23,6 +23,8 @@ struct Count {
 }
 
 impl SampleSink for Count {
+    type Error = liftwatch::Error;
+
     fn start(&mut self, _has_current: bool) -> Result<()> {
         *self = Count::default();
         Ok(())

@@ -96,7 +96,6 @@ struct Sink<'a> {
     events: Option<BufWriter<File>>,
     samples: u64,
     events_written: u64,
-    error: Option<std::io::Error>,
 }
 
 impl Sink<'_> {
@@ -113,20 +112,21 @@ impl Sink<'_> {
 }
 
 impl SampleSink for Sink<'_> {
-    fn start(&mut self, _has_current: bool) -> liftwatch::Result<()> {
+    /// The command's own error: alignment's errors convert into it, write errors carry the
+    /// output's name as context.
+    type Error = anyhow::Error;
+
+    fn start(&mut self, _has_current: bool) -> anyhow::Result<()> {
         // A restart of alignment (a late row) replays the input: start over from the beginning.
         self.monitor = match self.resume.clone() {
             Some(st) => Monitor::resume(self.model, st)?,
             None => Monitor::new(self.model, self.method),
         };
-        let io = |e: anyhow::Error, p: &Path| {
-            liftwatch::Error::io(p, std::io::Error::other(format!("{e:#}")))
-        };
-        let file = self.out.create().map_err(|e| io(e, &self.out.path))?;
+        let file = self.out.create()?;
         self.rows =
             Some(RowWriter::new(file).map_err(|e| liftwatch::Error::io(&self.out.path, e))?);
         self.events = match self.events_file {
-            Some(s) => Some(s.create().map_err(|e| io(e, &s.path))?),
+            Some(s) => Some(s.create()?),
             None => None,
         };
         self.samples = 0;
@@ -134,7 +134,7 @@ impl SampleSink for Sink<'_> {
         Ok(())
     }
 
-    fn push(&mut self, sample: &Sample) -> liftwatch::Result<()> {
+    fn push(&mut self, sample: &Sample) -> anyhow::Result<()> {
         self.samples += 1;
         if self.samples % 5_000_000 == 0 {
             eprintln!(
@@ -144,13 +144,8 @@ impl SampleSink for Sink<'_> {
             );
         }
         if let Some(row) = self.monitor.push(sample) {
-            if let Err(e) = self.write(&row) {
-                self.error = Some(e);
-                return Err(liftwatch::Error::io(
-                    &self.out.path,
-                    std::io::Error::other("write failed"),
-                ));
-            }
+            self.write(&row)
+                .with_context(|| format!("cannot write {}", self.out.path.display()))?;
         }
         Ok(())
     }
@@ -194,17 +189,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         events: None,
         samples: 0,
         events_written: 0,
-        error: None,
     };
-    let report = match align_file(&args.input, &align, &mut sink) {
-        Ok(r) => r,
-        Err(e) => {
-            if let Some(io) = sink.error.take() {
-                return Err(io).with_context(|| format!("cannot write {}", args.out.display()));
-            }
-            return Err(e.into());
-        }
-    };
+    let report = align_file(&args.input, &align, &mut sink)?;
     if let Some(w) = report.warning() {
         eprintln!("warning: {}: {w}", args.input.display());
     }

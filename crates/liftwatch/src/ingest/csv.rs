@@ -237,13 +237,16 @@ impl<R: Read> RowReader<R> {
     /// order, counting bad rows, missing values and unknown signals in `report`.
     /// Stops early when `f` breaks.
     ///
+    /// `f` may fail with its own error type `E`, as an alignment sink does; a read error of
+    /// the file is converted into it.
+    ///
     /// # Errors
     /// A read error, or whatever `f` returns.
-    pub fn for_each_reading(
+    pub fn for_each_reading<E: From<Error>>(
         &mut self,
         report: &mut IngestReport,
-        mut f: impl FnMut(f64, Signal, f64, u64) -> Result<ControlFlow<()>>,
-    ) -> Result<()> {
+        mut f: impl FnMut(f64, Signal, f64, u64) -> Result<ControlFlow<()>, E>,
+    ) -> Result<(), E> {
         match self.layout {
             Layout::Raw => self.raw_readings(report, &mut f),
             Layout::Aligned => self.for_each_row(report, |s, line| {
@@ -258,11 +261,11 @@ impl<R: Read> RowReader<R> {
         }
     }
 
-    fn raw_readings(
+    fn raw_readings<E: From<Error>>(
         &mut self,
         report: &mut IngestReport,
-        f: &mut impl FnMut(f64, Signal, f64, u64) -> Result<ControlFlow<()>>,
-    ) -> Result<()> {
+        f: &mut impl FnMut(f64, Signal, f64, u64) -> Result<ControlFlow<()>, E>,
+    ) -> Result<(), E> {
         while self.read()? {
             if self.is_blank() {
                 continue;
@@ -309,13 +312,15 @@ impl<R: Read> RowReader<R> {
     /// Streams every row of an aligned file with a good time to `f` as a [`Sample`]
     /// (unreadable or absent values as `NaN`) and its line. Raw files yield nothing.
     ///
+    /// `f` may fail with its own error type `E`; a read error is converted into it.
+    ///
     /// # Errors
     /// A read error, or whatever `f` returns.
-    pub fn for_each_row(
+    pub fn for_each_row<E: From<Error>>(
         &mut self,
         report: &mut IngestReport,
-        mut f: impl FnMut(&Sample, u64) -> Result<ControlFlow<()>>,
-    ) -> Result<()> {
+        mut f: impl FnMut(&Sample, u64) -> Result<ControlFlow<()>, E>,
+    ) -> Result<(), E> {
         if self.layout != Layout::Aligned {
             return Ok(());
         }
@@ -378,7 +383,7 @@ mod tests {
         let mut out = Vec::new();
         r.for_each_reading(&mut report, |t, s, v, line| {
             out.push((t, s, v, line));
-            Ok(ControlFlow::Continue(()))
+            Ok::<_, Error>(ControlFlow::Continue(()))
         })
         .unwrap();
         (out, report)
@@ -478,7 +483,7 @@ mod tests {
         let mut seen = Vec::new();
         r.for_each_row(&mut report, |s, _| {
             seen.push(*s);
-            Ok(ControlFlow::Continue(()))
+            Ok::<_, Error>(ControlFlow::Continue(()))
         })
         .unwrap();
         assert_eq!(seen.len(), 1);

@@ -99,6 +99,7 @@ impl MonitorTester {
             rows: Vec<MonitorRow>,
         }
         impl SampleSink for Feed {
+            type Error = liftwatch::Error;
             fn start(&mut self, _has_current: bool) -> liftwatch::Result<()> {
                 self.monitor = self.fresh.clone();
                 self.rows.clear();

@@ -1,13 +1,15 @@
 //! `liftwatch align`: raw `time,signal,value` telemetry (or an aligned file) to a uniform
 //! step, written as DATA.md §2. Stages 1-2 of the pipeline: ingest, then align.
 //!
-//! The output goes to a temporary file beside `--out`, renamed over it only when
-//! alignment succeeded, so a failed run leaves no output file behind.
+//! The output is written through the library's one atomic writer: a temporary file beside
+//! `--out`, renamed over it only when alignment succeeded, so a failed run leaves no output
+//! file behind; a device or FIFO (`--out /dev/stdout`) is written in place.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use anyhow::Context as _;
 use liftwatch::align::{align_file, AlignConfig, AlignedFileSink};
+use liftwatch::output::{check_distinct, FileArg};
 
 /// Flags of `liftwatch align`.
 #[derive(Debug, clap::Args)]
@@ -30,36 +32,6 @@ pub struct Args {
     pub reorder_window: f64,
 }
 
-/// Removes the temporary output unless the run succeeded.
-struct TempFile {
-    path: PathBuf,
-    keep: bool,
-}
-
-impl Drop for TempFile {
-    fn drop(&mut self) {
-        if !self.keep {
-            let _ = std::fs::remove_file(&self.path);
-        }
-    }
-}
-
-/// `dir/.name.<pid>.tmp` beside `out`, so the final rename stays on one file system.
-fn temp_path(out: &Path) -> anyhow::Result<PathBuf> {
-    let name = out
-        .file_name()
-        .with_context(|| format!("--out {}: not a file name", out.display()))?;
-    let dir = out
-        .parent()
-        .filter(|p| !p.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
-    Ok(dir.join(format!(
-        ".{}.{}.tmp",
-        name.to_string_lossy(),
-        std::process::id()
-    )))
-}
-
 /// The library error as one anyhow message. `Error::Io` already prints its source in
 /// its message, so keeping it as a cause would print the OS error twice under `{:#}`.
 fn flat(err: liftwatch::Error) -> anyhow::Error {
@@ -73,18 +45,25 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .and_then(|c| c.with_gap_limit(args.gap_limit))
         .and_then(|c| c.with_reorder_window(args.reorder_window))
         .map_err(flat)?;
-    let mut tmp = TempFile {
-        path: temp_path(&args.out)?,
-        keep: false,
-    };
+    check_distinct(&[
+        FileArg {
+            flag: "--input",
+            path: &args.input,
+            output: false,
+        },
+        FileArg {
+            flag: "--out",
+            path: &args.out,
+            output: true,
+        },
+    ])
+    .map_err(anyhow::Error::msg)?;
     let cannot_write = || format!("cannot write {}", args.out.display());
-    let mut sink = AlignedFileSink::create(&tmp.path)
+    let mut sink = AlignedFileSink::create(&args.out)
         .map_err(flat)
         .with_context(cannot_write)?;
     let report = align_file(&args.input, &cfg, &mut sink).map_err(flat)?;
     sink.finish().map_err(flat).with_context(cannot_write)?;
-    std::fs::rename(&tmp.path, &args.out).with_context(cannot_write)?;
-    tmp.keep = true;
     if let Some(w) = report.warning() {
         eprintln!("warning: {}: {w}", args.input.display());
     }

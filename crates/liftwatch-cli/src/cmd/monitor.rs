@@ -2,21 +2,30 @@
 //!
 //! Streams `--input` (raw or aligned) through alignment and the library's one streaming step
 //! [`Monitor::push`], writes one row per aligned sample to `--out` and, with `--events`, one
-//! JSON line per change of level. Outputs go to temporary files renamed on success, so a failed
-//! run leaves no half-written file. With `--state FILE` the run resumes from the state if the
+//! JSON line per change of level. With `--state FILE` the run resumes from the state if the
 //! file exists and saves the state at the end instead of flushing the last, still-held row:
 //! today's output appended to yesterday's equals one run over both inputs.
+//!
+//! Crash safety: every output goes through the library's one atomic writer, and the outputs are
+//! committed as a unit, rows first, events next, the state last. A failure or a kill at any
+//! instant leaves either the old state (and the retry recomputes the same outputs from it) or
+//! everything. Input at or before the time the state already covers is refused (it would count
+//! trips twice), or skipped with `--skip-covered`.
 
-use std::fs::File;
-use std::io::{BufWriter, Write};
-use std::path::{Path, PathBuf};
+use std::io::Write;
+use std::path::PathBuf;
 
 use anyhow::Context;
 use liftwatch::align::{align_file, AlignConfig, SampleSink};
 use liftwatch::file;
 use liftwatch::fit::FittedModel;
 use liftwatch::monitor::{Method, Monitor, MonitorRow, MonitorState, RowWriter};
+use liftwatch::output::{check_distinct, AtomicFile, FileArg};
 use liftwatch::Sample;
+
+/// Environment variable of the crash tests: `after-rows`, `after-events` or `before-state`
+/// makes the process abort at that commit instant, as a power cut would.
+pub const FAULT_ENV: &str = "LIFTWATCH_FAULT";
 
 /// Flags of `liftwatch monitor`.
 #[derive(Debug, clap::Args)]
@@ -42,46 +51,9 @@ pub struct Args {
     /// Alignment step for raw input (s).
     #[arg(long, default_value_t = 1.0)]
     pub step: f64,
-}
-
-/// A file written under a temporary name and renamed into place by [`Staged::commit`].
-struct Staged {
-    tmp: PathBuf,
-    path: PathBuf,
-}
-
-impl Staged {
-    fn new(path: &Path) -> Staged {
-        let dir = path
-            .parent()
-            .filter(|p| !p.as_os_str().is_empty())
-            .unwrap_or(Path::new("."));
-        let name = path
-            .file_name()
-            .map_or_else(|| "out".into(), |n| n.to_string_lossy().into_owned());
-        Staged {
-            tmp: dir.join(format!(".{name}.tmp{}", std::process::id())),
-            path: path.to_path_buf(),
-        }
-    }
-
-    fn create(&self) -> anyhow::Result<BufWriter<File>> {
-        let f = File::create(&self.tmp)
-            .with_context(|| format!("cannot write {}", self.path.display()))?;
-        Ok(BufWriter::with_capacity(1 << 16, f))
-    }
-
-    fn commit(&self) -> anyhow::Result<()> {
-        std::fs::rename(&self.tmp, &self.path)
-            .with_context(|| format!("cannot write {}", self.path.display()))
-    }
-}
-
-impl Drop for Staged {
-    fn drop(&mut self) {
-        // After a commit the temporary name no longer exists; after a failure it is removed.
-        let _ = std::fs::remove_file(&self.tmp);
-    }
+    /// Skip input samples the state already covers instead of refusing the input.
+    #[arg(long = "skip-covered")]
+    pub skip_covered: bool,
 }
 
 /// The alignment sink: feeds the monitor and writes its rows and events.
@@ -90,17 +62,38 @@ struct Sink<'a> {
     method: Method,
     resume: Option<MonitorState>,
     monitor: Monitor,
-    out: &'a Staged,
-    events_file: Option<&'a Staged>,
-    rows: Option<RowWriter<BufWriter<File>>>,
-    events: Option<BufWriter<File>>,
+    /// Rows: the writer over the output file, or the file alone before the first start.
+    rows: Rows,
+    events: Option<AtomicFile>,
+    /// Samples at or before this time were watched by an earlier run (NaN: none).
+    covered_until: f64,
+    skip_covered: bool,
     samples: u64,
+    skipped: u64,
     events_written: u64,
+}
+
+/// The rows output: a file not yet started, or its CSV writer.
+enum Rows {
+    File(AtomicFile),
+    Writing(RowWriter<AtomicFile>),
+    Gone,
+}
+
+impl Rows {
+    /// The file back, flushed.
+    fn take(&mut self) -> std::io::Result<AtomicFile> {
+        match std::mem::replace(self, Rows::Gone) {
+            Rows::File(f) => Ok(f),
+            Rows::Writing(w) => w.into_inner(),
+            Rows::Gone => Err(std::io::Error::other("not written after an earlier error")),
+        }
+    }
 }
 
 impl Sink<'_> {
     fn write(&mut self, r: &MonitorRow) -> std::io::Result<()> {
-        if let Some(w) = &mut self.rows {
+        if let Rows::Writing(w) = &mut self.rows {
             w.write(r)?;
         }
         if let (Some(e), Some(f)) = (&r.event, &mut self.events) {
@@ -122,19 +115,35 @@ impl SampleSink for Sink<'_> {
             Some(st) => Monitor::resume(self.model, st)?,
             None => Monitor::new(self.model, self.method),
         };
-        let file = self.out.create()?;
-        self.rows =
-            Some(RowWriter::new(file).map_err(|e| liftwatch::Error::io(&self.out.path, e))?);
-        self.events = match self.events_file {
-            Some(s) => Some(s.create()?),
-            None => None,
-        };
+        let restart = matches!(self.rows, Rows::Writing(_));
+        let mut file = self.rows.take().context("cannot write the rows")?;
+        if restart {
+            file.restart()?;
+            if let Some(e) = &mut self.events {
+                e.restart()?;
+            }
+        }
+        let path = file.path().display().to_string();
+        let w = RowWriter::new(file).with_context(|| format!("cannot write {path}"))?;
+        self.rows = Rows::Writing(w);
         self.samples = 0;
+        self.skipped = 0;
         self.events_written = 0;
         Ok(())
     }
 
     fn push(&mut self, sample: &Sample) -> anyhow::Result<()> {
+        if sample.time <= self.covered_until {
+            if !self.skip_covered {
+                anyhow::bail!(
+                    "the input has a sample at t = {} s, at or before t = {} s, the last the state covers: it was watched already (pass --skip-covered to skip what the state covers)",
+                    sample.time,
+                    self.covered_until
+                );
+            }
+            self.skipped += 1;
+            return Ok(());
+        }
         self.samples += 1;
         if self.samples % 5_000_000 == 0 {
             eprintln!(
@@ -144,20 +153,54 @@ impl SampleSink for Sink<'_> {
             );
         }
         if let Some(row) = self.monitor.push(sample) {
-            self.write(&row)
-                .with_context(|| format!("cannot write {}", self.out.path.display()))?;
+            self.write(&row).context("cannot write the outputs")?;
         }
         Ok(())
     }
 }
 
+/// Aborts the process at a commit instant when the crash tests ask for it ([`FAULT_ENV`]).
+fn fault_point(name: &str) {
+    if std::env::var(FAULT_ENV).is_ok_and(|v| v == name) {
+        std::process::abort();
+    }
+}
+
 /// Runs `monitor`: model, streamed input, rows, events, state, one summary line.
 pub fn run(args: Args) -> anyhow::Result<()> {
+    let mut files = vec![
+        FileArg {
+            flag: "--model",
+            path: &args.model,
+            output: false,
+        },
+        FileArg {
+            flag: "--input",
+            path: &args.input,
+            output: false,
+        },
+        FileArg {
+            flag: "--out",
+            path: &args.out,
+            output: true,
+        },
+    ];
+    if let Some(p) = &args.events {
+        files.push(FileArg {
+            flag: "--events",
+            path: p,
+            output: true,
+        });
+    }
+    if let Some(p) = &args.state {
+        files.push(FileArg {
+            flag: "--state",
+            path: p,
+            output: true,
+        });
+    }
+    check_distinct(&files).map_err(anyhow::Error::msg)?;
     let model = file::load(&args.model).context("cannot use the model")?;
-    model
-        .risk
-        .validate()
-        .with_context(|| format!("{}: risk settings", args.model.display()))?;
     let method: Method = args.method.parse()?;
     let resume = match &args.state {
         Some(p) if p.exists() => {
@@ -176,48 +219,55 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         _ => None,
     };
     let align = AlignConfig::default().with_step(args.step)?;
-    let out = Staged::new(&args.out);
-    let events = args.events.as_deref().map(Staged::new);
+    let cannot_write = |p: &std::path::Path| format!("cannot write {}", p.display());
+    let rows = AtomicFile::create(&args.out).with_context(|| cannot_write(&args.out))?;
+    let events = match &args.events {
+        Some(p) => Some(AtomicFile::create(p).with_context(|| cannot_write(p))?),
+        None => None,
+    };
     let mut sink = Sink {
         model: &model,
         method,
+        covered_until: resume.as_ref().map_or(f64::NAN, |s| s.last_time),
         resume,
         monitor: Monitor::new(&model, method),
-        out: &out,
-        events_file: events.as_ref(),
-        rows: None,
-        events: None,
+        rows: Rows::File(rows),
+        events,
+        skip_covered: args.skip_covered,
         samples: 0,
+        skipped: 0,
         events_written: 0,
     };
     let report = align_file(&args.input, &align, &mut sink)?;
     if let Some(w) = report.warning() {
         eprintln!("warning: {}: {w}", args.input.display());
     }
-    match &args.state {
-        Some(p) => sink.monitor.state().save(p)?,
-        None => {
-            for row in sink.monitor.finish() {
-                sink.write(&row)
-                    .with_context(|| format!("cannot write {}", args.out.display()))?;
-            }
+    if args.state.is_none() {
+        for row in sink.monitor.finish() {
+            sink.write(&row).with_context(|| cannot_write(&args.out))?;
         }
     }
-    if let Some(w) = sink.rows.take() {
-        w.into_inner()
-            .with_context(|| format!("cannot write {}", args.out.display()))?;
+    // Outputs first, state last: a crash in between leaves the old state, and the retry
+    // recomputes exactly these outputs from it.
+    let rows = sink.rows.take().with_context(|| cannot_write(&args.out))?;
+    rows.commit().with_context(|| cannot_write(&args.out))?;
+    fault_point("after-rows");
+    if let Some(f) = sink.events.take() {
+        f.commit().context("cannot write the events")?;
     }
-    if let Some(mut f) = sink.events.take() {
-        f.flush()
-            .with_context(|| format!("cannot write events for {}", args.out.display()))?;
-    }
-    out.commit()?;
-    if let Some(e) = &events {
-        e.commit()?;
+    fault_point("after-events");
+    if let Some(p) = &args.state {
+        fault_point("before-state");
+        sink.monitor.state().save(p)?;
     }
     let st = sink.monitor.state_ref();
+    let skipped = if sink.skipped > 0 {
+        format!(", {} already covered skipped", sink.skipped)
+    } else {
+        String::new()
+    };
     eprintln!(
-        "{}: {} samples, {} trips ({} sensor-implausible), final level {}, {} events ({})",
+        "{}: {} samples{skipped}, {} trips ({} sensor-implausible), final level {}, {} events ({})",
         args.out.display(),
         sink.samples,
         st.trips,

@@ -10,12 +10,12 @@
 //! converted into it (`From<liftwatch::Error>`), and the sink's errors come back from
 //! [`super::align_reader`] unchanged, so a caller never wraps its errors as I/O errors.
 
-use std::fs::File;
-use std::io::{self, BufWriter, Seek, SeekFrom};
+use std::io;
 use std::path::{Path, PathBuf};
 
 use super::writer::AlignedWriter;
 use crate::error::{Error, Result};
+use crate::output::AtomicFile;
 use crate::sample::Sample;
 
 /// Receives aligned samples in time order.
@@ -97,50 +97,54 @@ where
     }
 }
 
-/// A [`SampleSink`] writing an aligned CSV file; a restart truncates the file.
+/// A [`SampleSink`] writing an aligned CSV file through the one atomic writer
+/// ([`AtomicFile`]): a restart rewrites it from the start, and the file appears at its path
+/// only when [`AlignedFileSink::finish`] commits it, so a failed run leaves no partial file.
 pub struct AlignedFileSink {
-    path: PathBuf,
-    file: Option<File>,
-    writer: Option<AlignedWriter<BufWriter<File>>>,
+    state: FileState,
+}
+
+/// Where the sink is: before the first `start`, writing, or broken by an earlier error.
+enum FileState {
+    Fresh(AtomicFile),
+    Writing(AlignedWriter<AtomicFile>),
+    Broken(PathBuf),
 }
 
 impl AlignedFileSink {
-    /// Creates (or truncates) the file at `path`; nothing is written before `start`.
+    /// Starts a write of `path`; nothing is written before `start`.
     ///
     /// # Errors
     /// [`Error::Io`] naming `path`.
     pub fn create(path: &Path) -> Result<Self> {
-        let file = File::create(path).map_err(|e| Error::io(path, e))?;
         Ok(AlignedFileSink {
-            path: path.to_path_buf(),
-            file: Some(file),
-            writer: None,
+            state: FileState::Fresh(AtomicFile::create(path)?),
         })
     }
 
     /// The file, its writer flushed and taken apart when there is one.
-    fn take_file(&mut self) -> Result<File> {
-        if let Some(w) = self.writer.take() {
-            let buf = w.finish().map_err(|e| Error::io(&self.path, e))?;
-            return buf
-                .into_inner()
-                .map_err(|e| Error::io(&self.path, e.into_error()));
+    fn take_file(&mut self) -> Result<AtomicFile> {
+        let path = match &self.state {
+            FileState::Fresh(f) => f.path().to_path_buf(),
+            FileState::Writing(w) => w.get_ref().path().to_path_buf(),
+            FileState::Broken(p) => p.clone(),
+        };
+        match std::mem::replace(&mut self.state, FileState::Broken(path.clone())) {
+            FileState::Fresh(f) => Ok(f),
+            FileState::Writing(w) => w.finish().map_err(|e| Error::io(&path, e)),
+            FileState::Broken(p) => Err(Error::io(
+                &p,
+                io::Error::other("not written after an earlier error"),
+            )),
         }
-        self.file.take().ok_or_else(|| {
-            Error::io(
-                &self.path,
-                io::Error::other("file closed after an earlier error"),
-            )
-        })
     }
 
-    /// Flushes everything to disk.
+    /// Flushes everything to disk and moves the file into place.
     ///
     /// # Errors
     /// [`Error::Io`] naming the file.
     pub fn finish(mut self) -> Result<()> {
-        let file = self.take_file()?;
-        file.sync_all().map_err(|e| Error::io(&self.path, e))
+        self.take_file()?.commit()
     }
 }
 
@@ -148,28 +152,34 @@ impl SampleSink for AlignedFileSink {
     type Error = Error;
 
     fn start(&mut self, has_current: bool) -> Result<()> {
-        let restart = self.writer.is_some();
+        let restart = matches!(self.state, FileState::Writing(_));
         let mut file = self.take_file()?;
-        let io = |e| Error::io(&self.path, e);
         if restart {
-            file.set_len(0).map_err(io)?;
-            file.seek(SeekFrom::Start(0)).map_err(io)?;
+            file.restart()?;
         }
-        let buf = BufWriter::with_capacity(1 << 16, file);
-        self.writer = Some(AlignedWriter::new(buf, has_current).map_err(io)?);
+        let path = file.path().to_path_buf();
+        let w = AlignedWriter::new(file, has_current).map_err(|e| Error::io(&path, e))?;
+        self.state = FileState::Writing(w);
         Ok(())
     }
 
     fn push(&mut self, sample: &Sample) -> Result<()> {
-        match &mut self.writer {
-            Some(w) => w.write(sample).map_err(|e| Error::io(&self.path, e)),
-            None => Err(Error::io(
-                &self.path,
-                io::Error::other("sample before start"),
+        match &mut self.state {
+            FileState::Writing(w) => w
+                .write(sample)
+                .map_err(|e| Error::io(w.get_ref().path(), e)),
+            FileState::Fresh(f) => Err(Error::io(
+                f.path(),
+                io::Error::other("a sample before the start of the series"),
+            )),
+            FileState::Broken(p) => Err(Error::io(
+                &*p,
+                io::Error::other("not written after an earlier error"),
             )),
         }
     }
 }
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -6,12 +6,12 @@
 //! value   rounded to 1e-6 below 1e9, empty for NaN, `-0` written `0`
 //! ```
 
-use std::fs::File;
 use std::io::{self, BufWriter, Write};
 use std::path::Path;
 
 use super::ALIGNED_HEADER;
 use crate::error::{Error, Result};
+use crate::output::AtomicFile;
 use crate::sample::Sample;
 
 /// Appends a value compactly: empty for NaN, rounded to 1e-6 below 1e9, no `-0`.
@@ -75,6 +75,11 @@ impl<W: Write> AlignedWriter<W> {
         self.out.write_all(self.line.as_bytes())
     }
 
+    /// The underlying writer.
+    pub fn get_ref(&self) -> &W {
+        &self.out
+    }
+
     /// Flushes and gives the writer back.
     ///
     /// # Errors
@@ -98,13 +103,15 @@ pub fn write_aligned<W: Write>(out: W, samples: &[Sample]) -> io::Result<()> {
     w.finish()?.flush()
 }
 
-/// Writes `samples` as an aligned CSV file at `path` (replacing it).
+/// Writes `samples` as an aligned CSV file at `path` (replacing it whole, see
+/// [`AtomicFile`]).
 ///
 /// # Errors
 /// [`Error::Io`] naming `path`.
 pub fn write_aligned_file(path: &Path, samples: &[Sample]) -> Result<()> {
-    let file = File::create(path).map_err(|e| Error::io(path, e))?;
-    write_aligned(file, samples).map_err(|e| Error::io(path, e))
+    let mut file = AtomicFile::create(path)?;
+    write_aligned(&mut file, samples).map_err(|e| Error::io(path, e))?;
+    file.commit()
 }
 #[cfg(test)]
 mod tests {

@@ -17,7 +17,7 @@
 use std::collections::VecDeque;
 use std::path::Path;
 
-use super::{AlignConfig, SampleSink, MAX_SAMPLES, MAX_SPAN_S};
+use super::{AlignConfig, SampleSink, FREE_SPAN_S, MAX_ROWS_PER_READING, MAX_SAMPLES, MAX_SPAN_S};
 use crate::error::{Error, Result};
 use crate::ingest::{IngestReport, Signal};
 use crate::sample::Sample;
@@ -191,6 +191,8 @@ pub(super) struct Engine<'a, S: SampleSink> {
     t_min: f64,
     t_max: f64,
     max_span: f64,
+    /// Usable readings taken so far (the span they may cover grows with them).
+    readings: f64,
     next_k: Option<i64>,
     /// The latest time must reach this before the next grid point can go out.
     next_emit_at: f64,
@@ -221,6 +223,7 @@ impl<'a, S: SampleSink> Engine<'a, S> {
             t_min: f64::INFINITY,
             t_max: f64::NEG_INFINITY,
             max_span: max_span(cfg.step_s),
+            readings: 0.0,
             next_k: None,
             next_emit_at: f64::NEG_INFINITY,
             late_bound: f64::NEG_INFINITY,
@@ -240,6 +243,19 @@ impl<'a, S: SampleSink> Engine<'a, S> {
         let (lo, hi) = (self.t_min.min(t), self.t_max.max(t));
         if hi - lo > self.max_span {
             return Err(span_error(self.path, lo, hi, self.grid.step));
+        }
+        self.readings += 1.0;
+        let allowed = FREE_SPAN_S + MAX_ROWS_PER_READING * self.readings * self.grid.step;
+        if hi - lo > allowed {
+            return Err(Error::BadDocument {
+                path: self.path.to_path_buf(),
+                what: "telemetry log",
+                why: format!(
+                    "{:.0} readings span {:.0} s (from {lo} to {hi}): too few to fill that span                      (a week plus {MAX_ROWS_PER_READING:.0} steps per reading); split the log at the gap",
+                    self.readings,
+                    hi - lo
+                ),
+            });
         }
         self.t_min = lo;
         self.t_max = hi;

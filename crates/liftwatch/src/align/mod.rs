@@ -28,7 +28,9 @@
 //! any other aligned input is re-stepped by the same machinery, each column a signal.
 //!
 //! Limits: times beyond ±[`MAX_ABS_TIME_S`](crate::ingest::MAX_ABS_TIME_S) are bad rows (see [`crate::ingest::time`]);
-//! usable times spanning more than [`MAX_SPAN_S`] (10 years), or more than
+//! usable times spanning more than a week plus [`MAX_ROWS_PER_READING`] grid points per usable
+//! reading so far (a handful of rows cannot ask for gigabytes of empty output), more than
+//! [`MAX_SPAN_S`] (10 years), or more than
 //! [`MAX_SAMPLES`] grid points, are refused as soon as a row shows it, before that
 //! grid is produced.
 //!
@@ -66,6 +68,14 @@ pub const MAX_SPAN_S: f64 = 10.0 * 365.25 * 86_400.0;
 
 /// Most grid points one input may produce: 10 years at 1 s.
 pub const MAX_SAMPLES: f64 = MAX_SPAN_S;
+
+/// Grid points one usable reading may account for beyond [`FREE_SPAN_S`]: a log has several
+/// readings per second, so even a channel logged every quarter hour stays far below; a few rows
+/// spanning years (an 80 KB file asking for gigabytes of empty rows) are refused.
+pub const MAX_ROWS_PER_READING: f64 = 1000.0;
+
+/// Span (s) any input may cover regardless of how few readings it has: a week.
+pub const FREE_SPAN_S: f64 = 7.0 * 86_400.0;
 
 /// The header of an aligned file (DATA.md §2); `,current` follows when present.
 pub const ALIGNED_HEADER: &str = "time,speed,direction,voltage,load,door,floor";

@@ -23,6 +23,7 @@ use ::csv::{ByteRecord, ReaderBuilder};
 use super::time::{parse_time, TimeError, TimeForm};
 use super::{IngestReport, Layout, Signal};
 use crate::error::{Error, Result};
+use crate::limits::LineBounded;
 use crate::sample::Sample;
 
 const RAW_HEADER: [&str; 3] = ["time", "signal", "value"];
@@ -90,7 +91,7 @@ fn time_reason(field: &[u8], err: TimeError, form: Option<TimeForm>) -> String {
 
 /// A streaming reader of one telemetry file, either layout.
 pub struct RowReader<R: Read> {
-    rdr: ::csv::Reader<R>,
+    rdr: ::csv::Reader<LineBounded<R>>,
     rec: ByteRecord,
     layout: Layout,
     /// Fields every row must have: the header's count.
@@ -115,7 +116,7 @@ impl<R: Read> RowReader<R> {
             // `\n` only: a CRLF line keeps its `\r`, trimmed with the field, so that
             // line numbers stay those of the file (csv counts `\r\n` as two breaks).
             .terminator(::csv::Terminator::Any(b'\n'))
-            .from_reader(input);
+            .from_reader(LineBounded::new(input));
         let mut reader = RowReader {
             rdr,
             rec: ByteRecord::new(),
@@ -180,7 +181,7 @@ impl<R: Read> RowReader<R> {
 
     /// Gives the input back, to read it again from the start.
     pub fn into_inner(self) -> R {
-        self.rdr.into_inner()
+        self.rdr.into_inner().into_inner()
     }
 
     fn read(&mut self) -> Result<bool> {

@@ -1,0 +1,228 @@
+//! Stage 6, per-trip evidence: the trip-mean residuals and each trip's share of the
+//! fault-signature regression (normal equations of r_U on the signatures, per sample 1/n).
+//!
+//! ```text
+//! x_motor = φ(s)·Kd·s·F_pred    x_brake = φ(s)·Kd·F_c·1[s = −1 or decel]    x_fric = φ(s)·Kd·(F_c + c·|v|)
+//! per trip: mean e_U, mean e_F, mean x·xᵀ, mean x·r_U, mean r_U²
+//! ```
+
+use serde::{Deserialize, Serialize};
+
+use super::{RiskConfig, BRAKE, FRICTION, MOTOR, N_MODES};
+use crate::exact;
+use crate::features::{FeatureRow, Phase};
+use crate::model::{HybridModel, PhysParams, Prediction};
+use crate::residual::{PredictionCache, Residuals};
+
+/// Evidence of one trip: trip-mean residuals and the trip's share of the signature regression.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TripEvidence {
+    /// Time of the first moving sample (s).
+    pub start: f64,
+    /// Time of the last moving sample (s).
+    pub end: f64,
+    /// Moving samples with a voltage residual.
+    pub n: u32,
+    /// Direction of travel: +1 up, −1 down.
+    pub direction: i8,
+    /// Mean of e_U over the trip's moving samples.
+    pub mean_e_u: f64,
+    /// Mean of e_F over the trip's moving samples.
+    pub mean_e_f: f64,
+    /// Mean of x·xᵀ over the samples, packed upper triangle (00, 01, 02, 11, 12, 22) (V²).
+    pub xtx: [f64; 6],
+    /// Mean of x·r_U over the samples (V²).
+    pub xtr: [f64; N_MODES],
+    /// Mean of r_U² over the samples (V²).
+    pub rr: f64,
+    /// False when a sensor plausibility check failed: the trip is not machine evidence.
+    pub plausible: bool,
+}
+
+impl TripEvidence {
+    /// True when the trip counts as machine evidence.
+    pub fn usable(&self, cfg: &RiskConfig) -> bool {
+        self.plausible && self.n >= cfg.min_trip_samples && self.mean_e_u.is_finite()
+    }
+
+    /// Mean squared regression residual of the trip for coefficients θ (V²).
+    pub(crate) fn fit_error(&self, theta: &[f64; N_MODES]) -> f64 {
+        let xtx = unpack(&self.xtx);
+        let mut q = self.rr;
+        for i in 0..N_MODES {
+            q -= 2.0 * theta[i] * self.xtr[i];
+            for j in 0..N_MODES {
+                q += theta[i] * xtx[i][j] * theta[j];
+            }
+        }
+        q.max(0.0)
+    }
+}
+
+/// The friction (F_c, c) the signatures are scaled by: the fitted values, each floored at
+/// half of what the elevator description makes typical.
+///
+/// F_c is identified only as a small difference of two large constants (Δm·g ± F_c), and c
+/// hardly at all; on a small elevator the fit can put either near zero. Scaling the friction
+/// signature by a near-zero force turns a few volts of noise into thousands of percent of
+/// "friction drift" (seen on a 630 kg car: +3100 % ± 2800 %). The floor keeps the coefficient
+/// a relative change of a friction force of realistic size.
+pub fn friction_reference(model: &HybridModel) -> (f64, f64) {
+    let p = &model.parameters;
+    let typical = PhysParams::prior_centre(&model.elevator);
+    (
+        p.f_c.max(0.5 * typical.f_c),
+        p.c_visc.max(0.5 * typical.c_visc),
+    )
+}
+
+/// The fault-signature regressors of one moving sample (V per unit coefficient);
+/// `friction` is [`friction_reference`] of `model`, computed once by the caller.
+pub fn signature(
+    model: &HybridModel,
+    friction: (f64, f64),
+    x: &FeatureRow,
+    f_pred: f64,
+) -> [f64; N_MODES] {
+    let p = &model.parameters;
+    let (f_c, c_visc) = friction;
+    let phi_kd = p.phi(x.s) * p.kd;
+    let s = f64::from(x.s);
+    let braking = x.s == -1 || x.phase == Phase::Decelerating;
+    let mut out = [0.0; N_MODES];
+    out[MOTOR] = phi_kd * s * f_pred;
+    out[BRAKE] = if braking { phi_kd * f_c } else { 0.0 };
+    out[FRICTION] = phi_kd * (f_c + c_visc * x.v.abs());
+    out
+}
+
+/// Sums the samples of one trip into a [`TripEvidence`].
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct TripAccumulator {
+    #[serde(with = "exact")]
+    start: f64,
+    #[serde(with = "exact")]
+    end: f64,
+    n: u32,
+    n_f: u32,
+    up: u32,
+    down: u32,
+    #[serde(with = "exact")]
+    sum_e_u: f64,
+    #[serde(with = "exact")]
+    sum_e_f: f64,
+    #[serde(with = "exact::array")]
+    xtx: [f64; 6],
+    #[serde(with = "exact::array")]
+    xtr: [f64; N_MODES],
+    #[serde(with = "exact")]
+    rr: f64,
+}
+
+impl TripAccumulator {
+    /// Adds one moving sample with its prediction and residuals; standstill samples and
+    /// samples without a voltage residual are ignored. `friction` is
+    /// [`friction_reference`] of `model`.
+    pub fn push(
+        &mut self,
+        model: &HybridModel,
+        friction: (f64, f64),
+        x: &FeatureRow,
+        p: &Prediction,
+        r: &Residuals,
+    ) {
+        if x.s == 0 || !r.r_u.is_finite() {
+            return;
+        }
+        if self.n == 0 {
+            self.start = x.time;
+        }
+        self.end = x.time;
+        self.n += 1;
+        if x.s > 0 {
+            self.up += 1;
+        } else {
+            self.down += 1;
+        }
+        self.sum_e_u += r.e_u;
+        if r.e_f.is_finite() {
+            self.sum_e_f += r.e_f;
+            self.n_f += 1;
+        }
+        let sig = signature(model, friction, x, p.f_pred);
+        let mut k = 0;
+        for i in 0..N_MODES {
+            self.xtr[i] += sig[i] * r.r_u;
+            for j in i..N_MODES {
+                self.xtx[k] += sig[i] * sig[j];
+                k += 1;
+            }
+        }
+        self.rr += r.r_u * r.r_u;
+    }
+
+    /// Moving samples so far.
+    pub fn len(&self) -> u32 {
+        self.n
+    }
+
+    /// True before the first moving sample.
+    pub fn is_empty(&self) -> bool {
+        self.n == 0
+    }
+
+    /// The trip's evidence (means over its samples), or `None` for a trip without samples;
+    /// resets the accumulator.
+    pub fn finish(&mut self, plausible: bool) -> Option<TripEvidence> {
+        let a = std::mem::take(self);
+        if a.n == 0 {
+            return None;
+        }
+        let n = f64::from(a.n);
+        Some(TripEvidence {
+            start: a.start,
+            end: a.end,
+            n: a.n,
+            direction: if a.up >= a.down { 1 } else { -1 },
+            mean_e_u: a.sum_e_u / n,
+            mean_e_f: if a.n_f > 0 {
+                a.sum_e_f / f64::from(a.n_f)
+            } else {
+                f64::NAN
+            },
+            xtx: a.xtx.map(|v| v / n),
+            xtr: a.xtr.map(|v| v / n),
+            rr: a.rr / n,
+            plausible,
+        })
+    }
+}
+
+/// The healthy trips of a training set, for [`crate::calibrate::calibrate`]: residuals of `rows`
+/// with `model`, summed per trip (trips as marked by [`FeatureRow::trip`]). Plausibility of
+/// the raw sensors is not checked here: training data are healthy by assumption.
+pub fn trip_evidence(model: &HybridModel, rows: &[FeatureRow]) -> Vec<TripEvidence> {
+    let mut out = Vec::new();
+    let mut acc = TripAccumulator::default();
+    let mut cache = PredictionCache::default();
+    let friction = friction_reference(model);
+    let mut open: Option<u32> = None;
+    for x in rows {
+        if x.trip != open {
+            out.extend(acc.finish(true));
+            open = x.trip;
+        }
+        if x.s != 0 && crate::residual::applicable(x) {
+            let p = cache.predict(model, x);
+            let r = Residuals::from_prediction(model, x, &p);
+            acc.push(model, friction, x, &p, &r);
+        }
+    }
+    out.extend(acc.finish(true));
+    out
+}
+
+/// The symmetric 3×3 matrix of a packed upper triangle (00, 01, 02, 11, 12, 22).
+pub(super) fn unpack(p: &[f64; 6]) -> [[f64; 3]; 3] {
+    [[p[0], p[1], p[2]], [p[1], p[3], p[4]], [p[2], p[4], p[5]]]
+}

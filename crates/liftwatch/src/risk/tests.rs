@@ -1,0 +1,100 @@
+//! Tests of the risk stage: synthetic trips with known injected signatures.
+
+use super::evidence::unpack;
+use super::tracker::spd_inverse;
+use super::*;
+use crate::features::Phase;
+use crate::model::HybridModel;
+use crate::residual::tests::{row, test_model};
+use crate::residual::Residuals;
+use crate::rng::Rng;
+
+/// A fault or drift as a voltage residual added to each moving sample.
+pub(crate) type Injection<'a> = &'a dyn Fn(f64, &[f64; N_MODES]) -> f64;
+
+/// Synthetic trips: S-shaped speed profile, random load and direction, white noise of
+/// σ_U on the voltage, a daily ±3 % swing of Kd (thermal), plus `fault(t, signature)`.
+pub(crate) fn synthetic_trips(
+    model: &HybridModel,
+    seed: u64,
+    days: f64,
+    t0: f64,
+    fault: Injection,
+) -> Vec<TripEvidence> {
+    let mut rng = Rng::new(seed);
+    let mut out = Vec::new();
+    let mut t = t0;
+    let sigma = model.scales.sigma_u_v;
+    let friction = friction_reference(model);
+    while t < t0 + days * 86_400.0 {
+        t += rng.uniform(60.0, 400.0);
+        let s = if rng.uniform(0.0, 1.0) < 0.5 {
+            1.0
+        } else {
+            -1.0
+        };
+        let lambda = rng.uniform(0.0, 0.9);
+        let cruise = (rng.uniform(1.0, 14.0)) as usize;
+        let mut acc = TripAccumulator::default();
+        let profile: Vec<(f64, f64, Phase)> = [
+            (0.6, 0.8, Phase::Accelerating),
+            (1.4, 0.6, Phase::Accelerating),
+        ]
+        .into_iter()
+        .chain(std::iter::repeat((1.75, 0.0, Phase::Cruising)).take(cruise))
+        .chain([
+            (1.3, -0.6, Phase::Decelerating),
+            (0.5, -0.8, Phase::Decelerating),
+        ])
+        .collect();
+        for (i, (speed, acc_mag, phase)) in profile.into_iter().enumerate() {
+            let time = t + i as f64;
+            let mut x = row(model, time, s * speed, lambda, s * acc_mag, 0.0);
+            x.phase = phase;
+            let p = model.predict(&x);
+            let sig = signature(model, friction, &x, p.f_pred);
+            let thermal = 0.03 * (2.0 * std::f64::consts::PI * time / 86_400.0).sin() * sig[MOTOR];
+            x.voltage += thermal + fault(time, &sig) + sigma * rng.normal();
+            let p = model.predict(&x);
+            let r = Residuals::from_prediction(model, &x, &p);
+            acc.push(model, friction, &x, &p, &r);
+        }
+        out.extend(acc.finish(true));
+        t += 20.0;
+    }
+    out
+}
+
+#[test]
+fn inverse_of_a_spd_matrix_is_exact() {
+    let p = [4.0, 1.0, 0.5, 3.0, 0.2, 2.0];
+    let inv = spd_inverse(&p).unwrap();
+    let a = unpack(&p);
+    for i in 0..3 {
+        for j in 0..3 {
+            let v: f64 = (0..3).map(|k| a[i][k] * inv[k][j]).sum();
+            assert!((v - f64::from(u8::from(i == j))).abs() < 1e-12);
+        }
+    }
+    assert!(
+        spd_inverse(&[1.0, 1.0, 0.0, 1.0, 0.0, 1.0]).is_none(),
+        "singular"
+    );
+}
+
+#[test]
+fn regression_recovers_injected_coefficients() {
+    let m = test_model();
+    let trips = synthetic_trips(&m, 3, 2.0, 0.0, &|_, x| {
+        0.10 * x[MOTOR] + 0.25 * x[FRICTION] + 0.5 * x[BRAKE]
+    });
+    let mut rls = Rls::default();
+    for t in &trips {
+        rls.update(t, 1.0);
+    }
+    let (theta, _) = rls.estimate(1.0).unwrap();
+    // The thermal swing averages out over two whole days.
+    assert!((theta[MOTOR] - 0.10).abs() < 0.01, "{theta:?}");
+    assert!((theta[FRICTION] - 0.25).abs() < 0.05, "{theta:?}");
+    assert!((theta[BRAKE] - 0.5).abs() < 0.1, "{theta:?}");
+}

@@ -1,0 +1,271 @@
+//! Stage 6, the tracker: online re-identification of the signature coefficients (recursive
+//! least squares with forgetting) and the time-accumulated risks, combined and per mode.
+//!
+//! ```text
+//! θ̂ = A⁻¹b,  A ← λ·A + XᵀX,  b ← λ·b + Xᵀr            per trip, λ = 1 − 1/H
+//! z_m = (θ̂_m − θ0_m) / max(σ_m, k_m·SE_m),  c_m = ln(1 + max(0, z_m))
+//! x = max(0, c − τ),  D ← D + 1 if x > 0 else 0,  R ← γ·R + x·exp(κ·min(D, D_max))
+//! ```
+
+// Three-by-three matrices and per-mode arrays read best with explicit indices.
+#![allow(clippy::needless_range_loop)]
+
+use serde::{Deserialize, Serialize};
+
+use super::evidence::unpack;
+use super::{RiskConfig, TripEvidence, N_MODES};
+use crate::exact;
+
+/// Inverse of a symmetric positive-definite 3×3 matrix by Cholesky; `None` when it is not.
+pub(super) fn spd_inverse(p: &[f64; 6]) -> Option<[[f64; 3]; 3]> {
+    let a = unpack(p);
+    let scale = (a[0][0] + a[1][1] + a[2][2]) / 3.0;
+    if !(scale.is_finite() && scale > 0.0) {
+        return None;
+    }
+    let mut l = [[0.0; 3]; 3];
+    for i in 0..3 {
+        for j in 0..=i {
+            let mut s = a[i][j];
+            for k in 0..j {
+                s -= l[i][k] * l[j][k];
+            }
+            if i == j {
+                if s <= 1e-10 * scale {
+                    return None;
+                }
+                l[i][i] = s.sqrt();
+            } else {
+                l[i][j] = s / l[j][j];
+            }
+        }
+    }
+    // Invert L (lower triangular), then A⁻¹ = L⁻ᵀ·L⁻¹.
+    let mut li = [[0.0; 3]; 3];
+    for i in 0..3 {
+        li[i][i] = 1.0 / l[i][i];
+        for j in 0..i {
+            let mut s = 0.0;
+            for k in j..i {
+                s -= l[i][k] * li[k][j];
+            }
+            li[i][j] = s / l[i][i];
+        }
+    }
+    let mut inv = [[0.0; 3]; 3];
+    for i in 0..3 {
+        for j in 0..3 {
+            inv[i][j] = (i.max(j)..3).map(|k| li[k][i] * li[k][j]).sum();
+        }
+    }
+    Some(inv)
+}
+
+/// Recursive least squares with exponential forgetting, on per-trip normal equations.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Rls {
+    /// Forgetting-weighted Σ XᵀX (packed upper triangle).
+    #[serde(with = "exact::array")]
+    pub a: [f64; 6],
+    /// Forgetting-weighted Σ Xᵀr.
+    #[serde(with = "exact::array")]
+    pub b: [f64; N_MODES],
+}
+
+impl Rls {
+    /// A regression that starts from the healthy prior: information `prior_info` at θ0.
+    pub fn with_prior(cfg: &RiskConfig) -> Self {
+        let a = cfg.prior_info;
+        let m = unpack(&a);
+        let mut b = [0.0; N_MODES];
+        for i in 0..N_MODES {
+            b[i] = (0..N_MODES).map(|j| m[i][j] * cfg.healthy_coef[j]).sum();
+        }
+        Rls { a, b }
+    }
+
+    /// Forgets by `forget`, then adds one trip.
+    pub fn update(&mut self, t: &TripEvidence, forget: f64) {
+        for k in 0..6 {
+            self.a[k] = forget * self.a[k] + t.xtx[k];
+        }
+        for k in 0..N_MODES {
+            self.b[k] = forget * self.b[k] + t.xtr[k];
+        }
+    }
+
+    /// θ̂ and the variances s²·(A⁻¹)_jj, or `None` while the signatures are not separable yet.
+    pub fn estimate(&self, s2: f64) -> Option<([f64; N_MODES], [f64; N_MODES])> {
+        let inv = spd_inverse(&self.a)?;
+        let mut theta = [0.0; N_MODES];
+        let mut var = [0.0; N_MODES];
+        for i in 0..N_MODES {
+            theta[i] = (0..N_MODES).map(|j| inv[i][j] * self.b[j]).sum();
+            var[i] = s2 * inv[i][i];
+        }
+        Some((theta, var))
+    }
+}
+
+/// One accumulator R with its duration D.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Accumulator {
+    /// R: the risk (1).
+    #[serde(with = "exact")]
+    pub r: f64,
+    /// D: consecutive anomalous trips.
+    pub d: u32,
+}
+
+impl Accumulator {
+    /// One trip: x = max(0, c − τ), D, R = γ·R + x·exp(κ·min(D, D_max)); returns x.
+    pub fn step(&mut self, c: f64, tau: f64, cfg: &RiskConfig) -> f64 {
+        let x = excess(c, tau);
+        self.add(x, cfg);
+        x
+    }
+
+    /// One trip with its excess x ≥ 0 already formed: D, R = γ·R + x·exp(κ·min(D, D_max)).
+    pub fn add(&mut self, x: f64, cfg: &RiskConfig) {
+        self.d = if x > 0.0 { self.d.saturating_add(1) } else { 0 };
+        let gain = (cfg.kappa * f64::from(self.d).min(cfg.d_max_trips)).exp();
+        self.r = cfg.gamma * self.r + x * gain;
+    }
+}
+
+/// x = max(0, c − τ), zero for a missing c.
+pub(crate) fn excess(c: f64, tau: f64) -> f64 {
+    if c.is_finite() {
+        (c - tau).max(0.0)
+    } else {
+        0.0
+    }
+}
+
+/// The statistics of one trip before accumulation.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub(crate) struct TripStatistics {
+    /// c = ln(1 + e_trip), the compressed trip-level evidence.
+    pub(crate) c: f64,
+    /// c_m = ln(1 + z⁺_m) per mode.
+    pub(crate) c_modes: [f64; N_MODES],
+    /// e_trip itself.
+    pub(crate) e_trip: f64,
+}
+
+/// What the tracker concluded after one trip.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct TripAssessment {
+    /// e_trip: the trip-mean residual magnitude over its healthy spread (1).
+    #[serde(with = "exact")]
+    pub e_trip: f64,
+    /// Combined risk R.
+    #[serde(with = "exact")]
+    pub risk: f64,
+    /// Per-mode risks (motor, brake, friction).
+    #[serde(with = "exact::array")]
+    pub risk_modes: [f64; N_MODES],
+    /// Re-identified signature coefficients minus θ0 (motor, brake, friction; relative units).
+    #[serde(with = "exact::array")]
+    pub drift: [f64; N_MODES],
+    /// Standard errors of the drifts.
+    #[serde(with = "exact::array")]
+    pub drift_se: [f64; N_MODES],
+    /// One-sided drift statistics z⁺ (motor, brake, friction).
+    #[serde(with = "exact::array")]
+    pub z: [f64; N_MODES],
+}
+
+/// The risk state of one elevator: re-identification, accumulators and the last assessment.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RiskTracker {
+    rls: Rls,
+    #[serde(with = "exact")]
+    s2: f64,
+    combined: Accumulator,
+    modes: [Accumulator; N_MODES],
+    /// Trips taken as machine evidence so far.
+    pub trips: u64,
+    /// The latest assessment.
+    pub last: TripAssessment,
+}
+
+impl RiskTracker {
+    /// A tracker at the healthy reference of `cfg`, with no risk accumulated.
+    pub fn new(cfg: &RiskConfig) -> Self {
+        RiskTracker {
+            rls: Rls::with_prior(cfg),
+            s2: cfg.prior_s2,
+            combined: Accumulator::default(),
+            modes: [Accumulator::default(); N_MODES],
+            trips: 0,
+            last: TripAssessment::default(),
+        }
+    }
+
+    /// Updates the re-identification with one trip and forms its statistics.
+    pub(crate) fn statistics(&mut self, cfg: &RiskConfig, t: &TripEvidence) -> TripStatistics {
+        let forget = cfg.forgetting();
+        // The regression residual variance, tracked with the same horizon, from the error
+        // of the estimate before this trip (a prediction error, so a fault inflates it late).
+        if let Some((theta, _)) = self.rls.estimate(1.0) {
+            self.s2 = forget * self.s2 + (1.0 - forget) * t.fit_error(&theta);
+        }
+        self.rls.update(t, forget);
+        let n = f64::from(t.n.max(1));
+        let z_u = t.mean_e_u / (cfg.trip_spread_u[0] + cfg.trip_spread_u[1] / n).sqrt();
+        let z_f = t.mean_e_f / (cfg.trip_spread_f[0] + cfg.trip_spread_f[1] / n).sqrt();
+        let e_trip = if z_f.is_finite() {
+            ((z_u * z_u + z_f * z_f) / 2.0).sqrt()
+        } else {
+            z_u.abs()
+        };
+        let e = if e_trip.is_finite() { e_trip } else { 0.0 };
+        let mut c_modes = [0.0; N_MODES];
+        let a = &mut self.last;
+        a.e_trip = e_trip;
+        if let Some((theta, var)) = self.rls.estimate(self.s2) {
+            for m in 0..N_MODES {
+                a.drift[m] = theta[m] - cfg.healthy_coef[m];
+                a.drift_se[m] = var[m].sqrt();
+                // Never less than the healthy spread, never less than the current standard
+                // error scaled as in the fit (large while the data are thin, e.g. one
+                // direction only).
+                let z = a.drift[m] / (cfg.se_scale[m] * a.drift_se[m]).max(cfg.drift_sd[m]);
+                a.z[m] = z.max(0.0);
+                c_modes[m] = a.z[m].ln_1p();
+            }
+        } else {
+            a.drift = [f64::NAN; N_MODES];
+            a.drift_se = [f64::NAN; N_MODES];
+            a.z = [0.0; N_MODES];
+        }
+        TripStatistics {
+            c: e.ln_1p(),
+            c_modes,
+            e_trip,
+        }
+    }
+
+    /// Takes one trip of machine evidence (callers pass only plausible trips) and returns the
+    /// updated assessment.
+    pub fn push(&mut self, cfg: &RiskConfig, t: &TripEvidence) -> TripAssessment {
+        if !t.usable(cfg) {
+            return self.last;
+        }
+        let s = self.statistics(cfg, t);
+        // The combined risk takes the largest excess of any lens over its own boundary, so it
+        // rises for any mode and for trip-level deviations no signature explains.
+        let mut x = excess(s.c, cfg.tau);
+        for m in 0..N_MODES {
+            let xm = excess(s.c_modes[m], cfg.tau_modes[m]);
+            self.modes[m].add(xm, cfg);
+            x = x.max(xm);
+        }
+        self.combined.add(x, cfg);
+        self.trips += 1;
+        self.last.risk = self.combined.r;
+        self.last.risk_modes = [self.modes[0].r, self.modes[1].r, self.modes[2].r];
+        self.last
+    }
+}

@@ -51,6 +51,7 @@ impl AtomicFile {
                 out: BufWriter::new(file),
             });
         }
+        sweep_stale(&target);
         let temp = temp_path(&target);
         let file = File::create(&temp).map_err(|e| Error::io(&target, e))?;
         Ok(AtomicFile {
@@ -166,6 +167,7 @@ impl AtomicDir {
                 io::Error::other("exists and is not a directory"),
             ));
         }
+        sweep_stale(&target);
         let temp = PathBuf::from(format!("{}dir", temp_path(&target).display()));
         std::fs::create_dir(&temp).map_err(|e| Error::io(&target, e))?;
         Ok(AtomicDir {
@@ -308,6 +310,46 @@ fn temp_path(target: &Path) -> PathBuf {
     parent(target).join(format!(".{name}.{}.{n}.tmp", std::process::id()))
 }
 
+/// Removes temporary files of `target` left by processes that no longer run (a `kill -9` or a
+/// power cut gives a process no chance to clean up): `.name.<pid>.<n>.tmp` whose pid has no
+/// `/proc/<pid>`. Files of live processes, and anything else, are left alone.
+fn sweep_stale(target: &Path) {
+    let Some(name) = target.file_name().map(|n| n.to_string_lossy().into_owned()) else {
+        return;
+    };
+    let prefix = format!(".{name}.");
+    let Ok(entries) = std::fs::read_dir(parent(target)) else {
+        return;
+    };
+    for e in entries.flatten() {
+        let file = e.file_name().to_string_lossy().into_owned();
+        let Some(rest) = file.strip_prefix(&prefix) else {
+            continue;
+        };
+        let Some(rest) = rest
+            .strip_suffix(".tmp")
+            .or_else(|| rest.strip_suffix(".tmpdir"))
+        else {
+            continue;
+        };
+        let Some((pid, n)) = rest.split_once('.') else {
+            continue;
+        };
+        let (Ok(pid), Ok(_)) = (pid.parse::<u32>(), n.parse::<u64>()) else {
+            continue;
+        };
+        let alive = pid == std::process::id() || Path::new(&format!("/proc/{pid}")).exists();
+        if !alive {
+            let p = e.path();
+            let _ = if p.is_dir() {
+                std::fs::remove_dir_all(p)
+            } else {
+                std::fs::remove_file(p)
+            };
+        }
+    }
+}
+
 fn parent(path: &Path) -> &Path {
     path.parent()
         .filter(|p| !p.as_os_str().is_empty())
@@ -370,6 +412,23 @@ mod tests {
         assert_eq!(std::fs::read_to_string(&path).unwrap(), "again\n");
         let mut dev = AtomicFile::create(Path::new("/dev/null")).unwrap();
         assert!(dev.restart().is_err(), "a device cannot be rewound");
+    }
+
+    #[test]
+    fn temp_files_of_dead_processes_are_swept_and_live_ones_kept() {
+        let dir = scratch("sweep");
+        let path = dir.join("risk.csv");
+        // pid 0 is never a user process; this process is alive.
+        std::fs::write(dir.join(".risk.csv.0.3.tmp"), "left by a kill").unwrap();
+        std::fs::create_dir(dir.join(".risk.csv.0.4.tmpdir")).unwrap();
+        let mine = format!(".risk.csv.{}.99.tmp", std::process::id());
+        std::fs::write(dir.join(&mine), "in use").unwrap();
+        std::fs::write(dir.join(".other.csv.0.1.tmp"), "another target's").unwrap();
+        write_atomic(&path, b"rows").unwrap();
+        assert_eq!(
+            entries(&dir),
+            [".other.csv.0.1.tmp".to_string(), mine, "risk.csv".into()]
+        );
     }
 
     #[test]

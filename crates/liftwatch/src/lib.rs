@@ -46,6 +46,7 @@ pub mod risk;
 pub mod rng;
 pub mod sample;
 pub mod sim;
+pub mod stats;
 
 pub use elevator::Elevator;
 pub use error::{Error, Result};

@@ -11,6 +11,7 @@
 pub mod file;
 pub mod loss;
 pub mod net;
+pub mod optim;
 pub mod physics;
 pub mod train;
 

@@ -8,7 +8,7 @@
 //! The seam follows argmin's split of problem (`core/problem.rs`) and solver
 //! (`solver/quasinewton/lbfgs.rs`), reduced to what the fit needs: one trait, [`Problem`],
 //! that [`lbfgs`] and [`adam`] take, implemented by the hybrid loss
-//! [`Objective`](crate::model::loss::Objective). [`gauss_newton`] solves the one least-squares
+//! [`Objective`]. [`gauss_newton`] solves the one least-squares
 //! problem of stage 1, the voltage equation, and assembles its own normal equations.
 
 pub mod adam;

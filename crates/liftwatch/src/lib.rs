@@ -43,6 +43,7 @@ pub mod error;
 pub mod exact;
 pub mod linalg;
 pub mod rng;
+pub mod stats;
 pub mod sample;
 pub mod limits;
 pub mod elevator;

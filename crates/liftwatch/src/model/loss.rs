@@ -50,6 +50,17 @@ pub struct Obs {
     pub w: f64,
 }
 
+impl Obs {
+    /// U_phys(x; θ): the voltage the physics alone predicts for this observation (V).
+    pub fn u_phys(&self, p: &PhysParams, rated_load_kg: f64) -> f64 {
+        p.voltage(
+            self.s,
+            self.v,
+            p.force(self.s, self.v, self.lambda, self.a, self.q, rated_load_kg),
+        )
+    }
+}
+
 /// Gaussian prior on θ: centres μ and widths τ, derived from the elevator description.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Prior {
@@ -189,6 +200,12 @@ struct PhysEval {
     df: [f64; N_PHYS],
 }
 
+/// F, U_phys, F_U and their θ-derivatives for one observation.
+///
+/// `du` is [`PhysParams::du_dtheta`] computed here from `df`, which groups the m_rope entry as
+/// (φ·Kd·s)·(g·q) where `du_dtheta` has ((φ·Kd·s)·g)·q. The two round differently for some q,
+/// and each has shaped the fitted models (this one stage 2, that one stage 1 and the standard
+/// errors), so they are kept apart rather than changing fitted numbers.
 fn phys_eval(p: &PhysParams, motor_ref: &PhysParams, o: &Obs, m_r: f64) -> PhysEval {
     let s = f64::from(o.s);
     let phi = p.phi(o.s);
@@ -388,6 +405,21 @@ mod tests {
                 "unknown {i}: numeric {num} analytic {}",
                 g[i]
             );
+        }
+    }
+
+    #[test]
+    fn loss_gradient_of_the_voltage_is_du_dtheta_up_to_rounding() {
+        let mut rng = Rng::new(5);
+        let e = Elevator::new(1000.0, 1.75, 26);
+        let p = PhysParams::prior_centre(&e);
+        for o in random_data(&mut rng, 30) {
+            let pe = phys_eval(&p, &p, &o, 1000.0);
+            let du = p.du_dtheta(o.s, o.v, o.lambda, o.a, o.q, 1000.0);
+            for (k, (a, b)) in pe.du.iter().zip(du).enumerate() {
+                assert!((a - b).abs() <= 1e-15 * b.abs(), "θ_{k}: {a} vs {b}");
+            }
+            assert_eq!(pe.u, o.u_phys(&p, 1000.0));
         }
     }
 

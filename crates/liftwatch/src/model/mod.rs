@@ -13,6 +13,7 @@
 
 pub mod loss;
 pub mod net;
+pub mod optim;
 pub mod physics;
 pub mod train;
 

@@ -157,6 +157,44 @@ impl PhysParams {
         }
         (voltage - self.u0 - self.ke * v.abs()) / (self.phi(s) * self.kd * f64::from(s))
     }
+
+    /// ∂U/∂θ: the derivative of the voltage equation with respect to θ, in the order of
+    /// [`PhysParams::NAMES`], at one operating point (arguments as in [`PhysParams::force`]).
+    ///
+    /// ```text
+    /// ∂U/∂θ_k = φ·Kd·s·∂F/∂θ_k   for Δm, M0, F_c, c, m_rope  (∂F/∂θ = g, a, s, v, g·q)
+    /// ∂U/∂Kd = φ·s·F    ∂U/∂Ke = |v|    ∂U/∂U0 = 1    ∂U/∂α_down = Kd·s·F when s = −1
+    /// ```
+    ///
+    /// The training loss computes the same derivative inline (`loss::phys_eval`), with one
+    /// product grouped differently: the m_rope entry there is (φ·Kd·s)·(g·q), here
+    /// ((φ·Kd·s)·g)·q. The two differ in the last bit for some q, and each is part of a fit
+    /// (this one of the Gauss-Newton stage and the standard errors, that one of stage 2), so
+    /// merging them would change fitted models; they stay two.
+    pub fn du_dtheta(
+        &self,
+        s: i8,
+        v: f64,
+        lambda: f64,
+        a: f64,
+        q: f64,
+        rated_load_kg: f64,
+    ) -> [f64; N_PHYS] {
+        let sf = f64::from(s);
+        let k = self.phi(s) * self.kd * sf;
+        let f = self.force(s, v, lambda, a, q, rated_load_kg);
+        [
+            k * G,
+            k * a,
+            k * sf,
+            k * v,
+            self.phi(s) * sf * f,
+            v.abs(),
+            1.0,
+            if s == -1 { self.kd * sf * f } else { 0.0 },
+            k * G * q,
+        ]
+    }
 }
 
 #[cfg(test)]

@@ -1,0 +1,149 @@
+//! Stage 4, fit stage 1: the physics alone, by Gauss-Newton with Levenberg-Marquardt damping.
+//!
+//! ```text
+//! C(z)  = Σ_i w_i·((U_i − U_phys(x_i; θ(z)))/σ_U)² + w_P·Σ_k ((θ_k − μ_k)/τ_k)²
+//! J_ik  = ∂U_phys/∂θ_k · dθ_k/dz_k / σ_U           the prior enters as pseudo-observations
+//! H     = Σ_i w_i·J_iᵀJ_i + w_P·diag((dθ_k/dz_k/τ_k)²),   g = Σ_i w_i·r_i·J_i − prior terms
+//! (H + μ·diag(H))·Δz = g,  z ← z + Δz when C does not rise
+//! μ ← max(0.3·μ, 10⁻⁹) after an accepted step, μ ← 10·μ after a rejected one
+//! ```
+//!
+//! Stopping rule: when an accepted step lowers C by less than 10⁻¹² of C; when 30 increases
+//! of μ in a row find no step that lowers C; or after 100 iterations.
+
+use crate::error::{Error, Result};
+use crate::linalg::SquareMatrix;
+use crate::model::loss::{Obs, ParamMap, Prior};
+use crate::model::physics::N_PHYS;
+
+/// Most Gauss-Newton iterations (each one a fresh linearisation).
+const MAX_ITER: usize = 100;
+/// Most damping increases per iteration before the fit gives up improving.
+const MAX_DAMPING_TRIES: usize = 30;
+/// Initial damping μ, relative to the diagonal of H.
+const MU_START: f64 = 1e-3;
+/// Factor on μ after an accepted step: the model was trusted, trust it more.
+const MU_SHRINK: f64 = 0.3;
+/// Floor of μ.
+const MU_MIN: f64 = 1e-9;
+/// Factor on μ after a rejected step or a singular damped matrix.
+const MU_GROW: f64 = 10.0;
+/// Floor of a diagonal entry of H where it scales the damping, so a flat direction is damped.
+const MIN_DIAG: f64 = 1e-12;
+/// Relative decrease of C below which an accepted step means convergence.
+const REL_TOL: f64 = 1e-12;
+/// Floor of C where it divides the decrease, against a division by zero at a perfect fit.
+const MIN_COST: f64 = 1e-300;
+
+/// The least-squares problem of stage 1: the voltage equation on `data` with σ_U = `sigma_u`
+/// and the prior (weight `w_p`) as pseudo-observations, over z of the map θ(z).
+pub struct VoltageFit<'a> {
+    /// Observations.
+    pub data: &'a [Obs],
+    /// The prior on θ.
+    pub prior: &'a Prior,
+    /// The map z → θ.
+    pub map: &'a ParamMap,
+    /// Rated load M_r (kg).
+    pub rated_load_kg: f64,
+    /// σ_U: voltage noise scale (V).
+    pub sigma_u: f64,
+    /// w_P: weight of the prior.
+    pub w_p: f64,
+}
+
+impl VoltageFit<'_> {
+    /// Minimises C from `z`, counting iterations in `iteration`; returns ẑ and the diagonal of
+    /// H at the last linearisation (the curvature of C along each z_k).
+    ///
+    /// # Errors
+    /// [`Error::Unidentifiable`] when C is not finite at the end (the fit diverged).
+    pub fn solve(
+        &self,
+        mut z: [f64; N_PHYS],
+        iteration: &mut usize,
+    ) -> Result<([f64; N_PHYS], [f64; N_PHYS])> {
+        let mut mu = MU_START;
+        let mut c = self.cost(&z);
+        let mut curvature = [1.0; N_PHYS];
+        for _ in 0..MAX_ITER {
+            *iteration += 1;
+            let (h, g) = self.normal_equations(&z);
+            for (k, c) in curvature.iter_mut().enumerate() {
+                *c = h.get(k, k);
+            }
+            let mut improved = false;
+            for _ in 0..MAX_DAMPING_TRIES {
+                let mut hd = h.clone();
+                for k in 0..N_PHYS {
+                    *hd.at(k, k) += mu * h.get(k, k).max(MIN_DIAG);
+                }
+                let Some(l) = hd.cholesky() else {
+                    mu *= MU_GROW;
+                    continue;
+                };
+                let step = l.cholesky_solve(&g);
+                let mut zn = z;
+                for k in 0..N_PHYS {
+                    zn[k] += step[k];
+                }
+                let cn = self.cost(&zn);
+                if cn.is_finite() && cn <= c {
+                    let rel = (c - cn) / c.max(MIN_COST);
+                    z = zn;
+                    c = cn;
+                    mu = (mu * MU_SHRINK).max(MU_MIN);
+                    improved = true;
+                    if rel < REL_TOL {
+                        return Ok((z, curvature));
+                    }
+                    break;
+                }
+                mu *= MU_GROW;
+            }
+            if !improved {
+                break;
+            }
+        }
+        if !c.is_finite() {
+            return Err(Error::Unidentifiable("the physical fit diverged".into()));
+        }
+        Ok((z, curvature))
+    }
+
+    /// C(z).
+    fn cost(&self, z: &[f64; N_PHYS]) -> f64 {
+        let p = self.map.theta(z);
+        let d: f64 = self
+            .data
+            .iter()
+            .map(|o| o.w * ((o.u - o.u_phys(&p, self.rated_load_kg)) / self.sigma_u).powi(2))
+            .sum();
+        d + self.w_p * self.prior.penalty(&p)
+    }
+
+    /// H = JᵀWJ and g = JᵀWr at z, the prior included.
+    fn normal_equations(&self, z: &[f64; N_PHYS]) -> (SquareMatrix, [f64; N_PHYS]) {
+        let (m_r, sigma_u, w_p, prior) = (self.rated_load_kg, self.sigma_u, self.w_p, self.prior);
+        let p = self.map.theta(z);
+        let dz = self.map.dtheta_dz(z);
+        let mut h = SquareMatrix::zeros(N_PHYS);
+        let mut g = [0.0; N_PHYS];
+        for o in self.data {
+            let r = (o.u - o.u_phys(&p, m_r)) / sigma_u;
+            let mut j = p.du_dtheta(o.s, o.v, o.lambda, o.a, o.q, m_r);
+            for k in 0..N_PHYS {
+                j[k] *= dz[k] / sigma_u;
+                g[k] += o.w * r * j[k];
+            }
+            h.add_outer(&j, o.w);
+        }
+        let (t, m) = (p.to_array(), prior.centre.to_array());
+        for k in 0..N_PHYS {
+            let jk = dz[k] / prior.sd[k];
+            *h.at(k, k) += w_p * jk * jk;
+            g[k] -= w_p * (t[k] - m[k]) / prior.sd[k] * jk;
+        }
+        (h, g)
+    }
+}

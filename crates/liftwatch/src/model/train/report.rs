@@ -1,0 +1,201 @@
+//! Stage 4, what the fit says about θ: standard errors and which parameters the data decided.
+//!
+//! ```text
+//! σ̂_U  = 1.4826·MAD(U − U_phys(θ̂) − δU)                 robust noise of the final voltage fit
+//! H    = Σ_i w_i·(∂U_phys/∂θ)ᵢᵀ(∂U_phys/∂θ)ᵢ/σ̂_U² + w_P·diag(1/τ_k²)
+//! Cov  = H⁻¹,   se_k = √Cov_kk,   determined ⇔ se_k < τ_k/3
+//! se(c) = √(∇cᵀ·Cov·∇c)  for the identifiable combinations Ke + Kd·c and Ke + α_down·Kd·c
+//! ```
+//!
+//! The samples are taken as independent, so the standard errors are lower bounds where the
+//! residuals within a trip are correlated; the network is held fixed.
+
+use serde::{Deserialize, Serialize};
+
+use crate::linalg::SquareMatrix;
+use crate::model::loss::{Obs, Prior};
+use crate::model::net::ResidualNet;
+use crate::model::physics::{PhysParams, N_PHYS};
+use crate::model::train::TrainPoint;
+use crate::stats::robust_sigma;
+
+/// Floor of σ̂_U (V), so that a perfect fit gives a finite covariance.
+const MIN_SIGMA_V: f64 = 1e-6;
+/// A parameter is the data's when they narrowed its prior width at least this many times.
+const DETERMINED_NARROWING: f64 = 3.0;
+/// A combination is determined when its standard error is below this share of its value.
+const DETERMINED_COMBINATION: f64 = 0.05;
+/// The channel latency (s) for which the m0 warning states the inertia it fakes: 10 ms.
+const LATENCY_STEP_S: f64 = 0.01;
+
+/// What the data say about one parameter.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ParamReport {
+    /// Name as in [`PhysParams::NAMES`], or a combination such as `ke + kd*c_visc`.
+    pub name: String,
+    /// Unit.
+    pub unit: String,
+    /// Identified value.
+    pub value: f64,
+    /// Standard error from the Gauss-Newton covariance (samples taken as independent, so a
+    /// lower bound where residuals within a trip are correlated).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub std_error: Option<f64>,
+    /// Prior width τ; none for combinations of parameters.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub prior_sd: Option<f64>,
+    /// True when the data narrowed the prior at least threefold: the value is the data's.
+    pub determined: bool,
+}
+
+/// Everything the fit found besides the model itself.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct FitSummary {
+    /// Moving samples used.
+    pub moving_samples: usize,
+    /// Standstill samples used.
+    pub standstill_samples: usize,
+    /// Per parameter and identifiable combination: value, standard error, determined or not.
+    pub parameters: Vec<ParamReport>,
+    /// Training history, thinned to at most a few hundred points.
+    pub history: Vec<TrainPoint>,
+    /// Final RMS of r_U over moving samples (V).
+    pub rms_u_v: f64,
+    /// Final RMS of r_F over moving samples (N).
+    pub rms_f_n: f64,
+    /// Loss after stage 1 and at the end.
+    pub loss_stage1: f64,
+    /// Final loss.
+    pub loss_final: f64,
+    /// Stage-2 iterations run.
+    pub iterations: usize,
+    /// Warnings about what the data could not determine.
+    pub warnings: Vec<String>,
+}
+
+/// Standard errors from the Gauss-Newton covariance of the voltage equation at the final θ
+/// with the network held fixed, and which parameters the data determined.
+pub(super) fn param_reports(
+    data: &[Obs],
+    p: &PhysParams,
+    net: &ResidualNet,
+    prior: &Prior,
+    m_r: f64,
+    w_p: f64,
+) -> (Vec<ParamReport>, Vec<String>) {
+    let sigma = robust_sigma(
+        data.iter()
+            .filter(|o| o.s != 0)
+            .map(|o| o.u - o.u_phys(p, m_r) - net.forward(o.v, o.lambda, o.a)[0]),
+    )
+    .max(MIN_SIGMA_V);
+    let mut h = SquareMatrix::zeros(N_PHYS);
+    for o in data {
+        let j = p
+            .du_dtheta(o.s, o.v, o.lambda, o.a, o.q, m_r)
+            .map(|v| v / sigma);
+        h.add_outer(&j, o.w);
+    }
+    for k in 0..N_PHYS {
+        *h.at(k, k) += w_p / (prior.sd[k] * prior.sd[k]);
+    }
+    let mut warnings = Vec::new();
+    let Some(l) = h.cholesky() else {
+        warnings
+            .push("the parameter covariance is singular: standard errors are not available".into());
+        return (without_errors(p, prior), warnings);
+    };
+    let cov = l.cholesky_inverse();
+    let t = p.to_array();
+    let mut reps: Vec<ParamReport> = (0..N_PHYS)
+        .map(|k| {
+            let se = cov.get(k, k).max(0.0).sqrt();
+            let determined = se < prior.sd[k] / DETERMINED_NARROWING;
+            if !determined {
+                warnings.push(format!(
+                    "{} is set mostly by its prior (standard error {:.3} {} against prior width {:.3})",
+                    PhysParams::NAMES[k],
+                    se,
+                    PhysParams::UNITS[k],
+                    prior.sd[k]
+                ));
+            }
+            ParamReport {
+                name: PhysParams::NAMES[k].into(),
+                unit: PhysParams::UNITS[k].into(),
+                value: t[k],
+                std_error: Some(se),
+                prior_sd: Some(prior.sd[k]),
+                determined,
+            }
+        })
+        .collect();
+    reps.extend(combinations(p, &cov));
+    // Sensor timing: a relative latency Δτ between the speed and voltage channels adds
+    // −Ke·Δτ·s·a to the voltage, the very shape of the inertia term Kd·M0·s·a.
+    warnings.push(format!(
+        "m0 is an apparent inertia: each 10 ms of latency of the voltage channel behind the speed channel lowers it by {:.0} kg",
+        p.ke * LATENCY_STEP_S / p.kd
+    ));
+    (reps, warnings)
+}
+
+/// The reports when the covariance is singular: values and prior widths, nothing determined.
+fn without_errors(p: &PhysParams, prior: &Prior) -> Vec<ParamReport> {
+    PhysParams::NAMES
+        .iter()
+        .zip(p.to_array())
+        .enumerate()
+        .map(|(k, (n, v))| ParamReport {
+            name: (*n).into(),
+            unit: PhysParams::UNITS[k].into(),
+            value: v,
+            std_error: None,
+            prior_sd: Some(prior.sd[k]),
+            determined: false,
+        })
+        .collect()
+}
+
+/// The identifiable combinations: the |v| slope of the voltage up and down.
+fn combinations(p: &PhysParams, cov: &SquareMatrix) -> [ParamReport; 2] {
+    let combo = |name: &str, grad: [f64; N_PHYS], value: f64| {
+        let mut var = 0.0;
+        for i in 0..N_PHYS {
+            for j in 0..N_PHYS {
+                var += grad[i] * cov.get(i, j) * grad[j];
+            }
+        }
+        let se = var.max(0.0).sqrt();
+        ParamReport {
+            name: name.into(),
+            unit: "V s/m".into(),
+            value,
+            std_error: Some(se),
+            prior_sd: None,
+            determined: se < DETERMINED_COMBINATION * value.abs(),
+        }
+    };
+    [
+        combo(
+            "ke + kd*c_visc",
+            [0.0, 0.0, 0.0, p.kd, p.c_visc, 1.0, 0.0, 0.0, 0.0],
+            p.ke + p.kd * p.c_visc,
+        ),
+        combo(
+            "ke + alpha_down*kd*c_visc",
+            [
+                0.0,
+                0.0,
+                0.0,
+                p.alpha_down * p.kd,
+                p.alpha_down * p.c_visc,
+                1.0,
+                0.0,
+                p.kd * p.c_visc,
+                0.0,
+            ],
+            p.ke + p.alpha_down * p.kd * p.c_visc,
+        ),
+    ]
+}

@@ -57,7 +57,9 @@ impl TripGrouper {
         } else {
             self.close()
         };
-        let index = r.trip?;
+        let Some(index) = r.trip else {
+            return closed;
+        };
         let (_, t) = self.open.get_or_insert_with(|| {
             (
                 index,
@@ -145,12 +147,14 @@ mod tests {
             (2.0, Some(0), 4.0, f64::NAN),
             (3.0, Some(0), 4.0, 5.0),
             (4.0, Some(0), 6.0, 5.0),
+            (4.5, None, 0.0, f64::NAN),
             (5.0, Some(1), 9.0, 1.0),
             (6.0, Some(2), 9.0, 1.0),
             (7.0, None, 0.0, f64::NAN),
         ] {
             trips.extend(g.push(&row(t, k, ru, rf)));
         }
+        assert_eq!(trips.len(), 1, "a standstill row closes the trip");
         trips.extend(g.close());
         // Trip 0 keeps its three rows with residuals across the hole; trips 1 and 2 are short.
         assert_eq!(trips.len(), 1, "{trips:?}");

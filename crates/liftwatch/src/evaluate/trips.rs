@@ -60,19 +60,17 @@ impl TripGrouper {
         let Some(index) = r.trip else {
             return closed;
         };
-        let (_, t) = self.open.get_or_insert_with(|| {
-            (
-                index,
-                TripSummary {
-                    end: r.time,
-                    mean_e_u: 0.0,
-                    n: 0,
-                    first_alarm: f64::NAN,
-                    motor_hits: 0,
-                    friction_hits: 0,
-                },
-            )
-        });
+        let (_, t) = self.open.get_or_insert((
+            index,
+            TripSummary {
+                end: r.time,
+                mean_e_u: 0.0,
+                n: 0,
+                first_alarm: f64::NAN,
+                motor_hits: 0,
+                friction_hits: 0,
+            },
+        ));
         if t.n == 0 {
             self.sum = 0.0;
         }

@@ -63,6 +63,7 @@ pub mod logger;
 pub mod motion;
 pub mod plant;
 pub mod scenario;
+pub mod stream;
 pub mod traffic;
 
 use std::collections::VecDeque;

@@ -5,11 +5,12 @@
 
 use liftwatch::alarm::{FaultMode, Level};
 use liftwatch::fit;
+use liftwatch::mode::FaultMode as Fault;
 use liftwatch::model::TrainConfig;
 use liftwatch::monitor::{Method, Monitor};
 use liftwatch::rng::Rng;
 use liftwatch::sim::plant::SimElevator;
-use liftwatch::sim::scenario::{FaultMode as Fault, Ramp, Scenario};
+use liftwatch::sim::scenario::{Ramp, Scenario};
 use liftwatch::sim::{simulate, SimConfig};
 use liftwatch::Elevator;
 

@@ -23,7 +23,7 @@ use crate::alarm::{AlarmState, Level};
 use crate::error::{Error, Result};
 use crate::mode::N_MODES;
 use crate::risk::{excess, RiskConfig, RiskTracker, Rls, TripEvidence};
-use crate::rng::Rng;
+use crate::rng::{moving_blocks, BlockStart, Rng};
 use crate::sensor::SensorLimits;
 
 /// Independent forgetting windows of healthy trips needed before the standard errors of the
@@ -304,7 +304,8 @@ fn mean_plus_3sd(x: &[f64]) -> f64 {
     mean + 3.0 * var.sqrt()
 }
 
-/// Draws a moving-block bootstrap sequence of `total` trips and hands each to `f`.
+/// Draws a moving-block bootstrap sequence of `total` trips and hands each to `f`: blocks of
+/// `block_s` of consecutive trips starting at any trip ([`moving_blocks`]).
 fn bootstrap(
     trips: &[TripEvidence],
     block_s: f64,
@@ -312,19 +313,11 @@ fn bootstrap(
     rng: &mut Rng,
     mut f: impl FnMut(&TripEvidence),
 ) {
-    let n = trips.len();
-    let mut done = 0u64;
-    while done < total {
-        let i0 = (rng.next_u64() % n as u64) as usize;
-        let start = trips[i0].start;
-        for t in &trips[i0..] {
-            if t.start - start >= block_s || done >= total {
-                break;
-            }
-            f(t);
-            done += 1;
-        }
-    }
+    let total = usize::try_from(total).unwrap_or(usize::MAX);
+    let ends = |first: usize, i: usize| trips[i].start - trips[first].start >= block_s;
+    moving_blocks(rng, trips.len(), BlockStart::Anywhere, total, ends, |i| {
+        f(&trips[i]);
+    });
 }
 
 /// Highest combined and per-mode risks over a bootstrap run.

@@ -114,6 +114,9 @@ pub struct MonitorRow {
     pub friction_drift_pct: f64,
     /// Extra column: re-identified brake drag (N).
     pub brake_drag_n: f64,
+    /// The features stage's trip index of this sample, if moving ([`FeatureRow::trip`]); not
+    /// written to the CSV.
+    pub trip: Option<u32>,
 }
 
 /// Runs the streaming monitor of `method` over a whole series with no saved state: one row
@@ -477,6 +480,7 @@ impl Monitor {
             kd_drift_pct: 100.0 * a.drift[MOTOR],
             friction_drift_pct: 100.0 * a.drift[FRICTION],
             brake_drag_n: self.friction.0 * a.drift[BRAKE],
+            trip: x.trip,
         }
     }
 
@@ -502,6 +506,7 @@ impl Monitor {
             kd_drift_pct: f64::NAN,
             friction_drift_pct: f64::NAN,
             brake_drag_n: f64::NAN,
+            trip: x.trip,
         }
     }
 }
@@ -652,6 +657,7 @@ mod tests {
             kd_drift_pct: 1.5,
             friction_drift_pct: f64::NAN,
             brake_drag_n: f64::NAN,
+            trip: Some(3),
         };
         assert_eq!(
             csv(&[r]).lines().nth(1).unwrap(),

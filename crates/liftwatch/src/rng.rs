@@ -2,6 +2,17 @@
 //!
 //! Kept in-tree so that a seed gives the same simulated elevator and the same fit on every
 //! build, whatever version of a random-number crate the dependency graph resolves to.
+//!
+//! Beside it, the one moving-block bootstrap ([`moving_blocks`]) of the calibrations: a record
+//! of healthy observations is resampled as blocks of consecutive observations, each starting
+//! at a random index, which keeps the correlation within a block (load, winding temperature)
+//! that resampling single observations would destroy.
+//!
+//! ```text
+//! repeat until `total` indices are out:
+//!     i0 = a uniform draw from the allowed starts            (see BlockStart)
+//!     out i0, i0 + 1, …  while not block_ends(i0, i), i < len, and fewer than `total` are out
+//! ```
 
 /// xoshiro256++ with uniform and Gaussian draws.
 #[derive(Clone, Debug)]
@@ -92,6 +103,57 @@ impl Rng {
     }
 }
 
+/// Where a moving block may start, and how the start is drawn. Both draws are uniform over
+/// the starts; they use the random bits differently, and each caller keeps the one its seeds
+/// were set with, so its results reproduce bit for bit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BlockStart {
+    /// Any index of the record, drawn as `next_u64() mod len` (the risk calibration, whose
+    /// blocks are a duration and are cut short at the end of the record).
+    Anywhere,
+    /// One of the first `len − block + 1` indices, so that a block of `block` indices fits
+    /// whole, drawn with [`Rng::below`] (the chart calibration, whose blocks are a count).
+    Whole {
+        /// Indices of a whole block.
+        block: usize,
+    },
+}
+
+/// A moving-block bootstrap of a record of `len` observations: hands `emit` the indices of
+/// `total` resampled observations in order. Each block starts at an index drawn as `start`
+/// says and runs until `block_ends(first, i)` is true for its next index `i`, the record
+/// ends, or `total` are out; a block always holds its first index. An empty record gives
+/// nothing and draws nothing.
+pub fn moving_blocks(
+    rng: &mut Rng,
+    len: usize,
+    start: BlockStart,
+    total: usize,
+    mut block_ends: impl FnMut(usize, usize) -> bool,
+    mut emit: impl FnMut(usize),
+) {
+    if len == 0 {
+        return;
+    }
+    let mut done = 0;
+    while done < total {
+        let first = match start {
+            BlockStart::Anywhere => (rng.next_u64() % len as u64) as usize,
+            BlockStart::Whole { block } => {
+                let starts = len - block.clamp(1, len) + 1;
+                rng.below(starts as u64) as usize
+            }
+        };
+        for i in first..len {
+            if done >= total || (i > first && block_ends(first, i)) {
+                break;
+            }
+            emit(i);
+            done += 1;
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -112,5 +174,46 @@ mod tests {
         assert!((m2 / f64::from(n) - 1.0).abs() < 0.02);
         let u: f64 = (0..n).map(|_| a.next_f64()).sum::<f64>() / f64::from(n);
         assert!((u - 0.5).abs() < 0.005);
+    }
+
+    #[test]
+    fn whole_blocks_fit_and_stop_at_the_total() {
+        let mut rng = Rng::new(1);
+        let mut out = Vec::new();
+        let whole = BlockStart::Whole { block: 4 };
+        moving_blocks(&mut rng, 10, whole, 10, |f, i| i - f >= 4, |i| out.push(i));
+        assert_eq!(out.len(), 10);
+        // Blocks of 4 consecutive indices, the last cut at the total, all within the record.
+        for b in out.chunks(4) {
+            assert!(b.windows(2).all(|w| w[1] == w[0] + 1), "{out:?}");
+        }
+        assert!(out.iter().all(|&i| i < 10));
+        moving_blocks(
+            &mut rng,
+            0,
+            whole,
+            10,
+            |_, _| false,
+            |_| panic!("empty record"),
+        );
+    }
+
+    #[test]
+    fn blocks_from_anywhere_are_cut_at_the_end_of_the_record() {
+        let mut rng = Rng::new(2);
+        let mut out = Vec::new();
+        moving_blocks(
+            &mut rng,
+            5,
+            BlockStart::Anywhere,
+            200,
+            |_, _| false,
+            |i| out.push(i),
+        );
+        assert_eq!(out.len(), 200);
+        // A block runs to the end of the record, so each new block starts after a 4.
+        for w in out.windows(2) {
+            assert!(w[1] == w[0] + 1 || w[0] == 4, "{out:?}");
+        }
     }
 }

@@ -12,11 +12,11 @@ use std::time::Instant;
 use anyhow::Context;
 use liftwatch::alarm::Level;
 use liftwatch::align::{read_series, AlignConfig};
+use liftwatch::mode::FaultMode;
 use liftwatch::model::TrainConfig;
 use liftwatch::monitor::MonitorRow;
 use liftwatch::rng::Rng;
 use liftwatch::sim::plant::SimElevator;
-use liftwatch::sim::scenario::FaultMode;
 use liftwatch::sim::{write_dir, SimConfig, SimTruth};
 use liftwatch::Elevator;
 use liftwatch::{file, fit};
@@ -122,7 +122,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         &format!(
             "simulating {} days in which the {} degrades",
             args.days,
-            args.scenario.mode().name()
+            args.scenario.mode().as_str()
         ),
     );
     let run_dir = out.join("degraded");
@@ -210,7 +210,7 @@ fn outcome_summary(truth: &SimTruth, pinn: &[MonitorRow], threshold: &[MonitorRo
     let _ = writeln!(
         s,
         "fault: {} from day {:.1}, linear to full severity at day {:.1}",
-        sc.mode.name(),
+        liftwatch::sim::truth_name(sc.mode),
         day(onset),
         day(sc.full_at_s)
     );

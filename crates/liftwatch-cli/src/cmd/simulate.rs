@@ -7,7 +7,7 @@
 use std::path::PathBuf;
 
 use anyhow::Context;
-use liftwatch::sim::{self, FaultMode, Ramp, Scenario, SensorFault, SimConfig};
+use liftwatch::sim::{self, parse_scenario, truth_name, Ramp, Scenario, SensorFault, SimConfig};
 use liftwatch::Elevator;
 
 /// Flags of `liftwatch simulate`.
@@ -72,7 +72,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     cfg.traffic_scale = args.traffic;
     cfg.start_s = args.start_hour * 3600.0;
     let span = cfg.duration_s();
-    let mode: FaultMode = args.scenario.parse()?;
+    let mode = parse_scenario(&args.scenario)?;
     let ramp: Ramp = args.ramp.parse()?;
     let onset = cfg.start_s + args.onset_days.map_or(0.4 * span, |d| d * 86_400.0);
     // An explicit --full-days before the onset is an error; the default follows a late onset.
@@ -80,7 +80,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Some(d) => cfg.start_s + d * 86_400.0,
         None => (cfg.start_s + span).max(onset),
     };
-    cfg.scenario = Scenario::new(mode, onset, ramp, full, args.severity)?;
+    cfg.scenario = match mode {
+        Some(mode) => Scenario::new(mode, onset, ramp, full, args.severity)?,
+        None => Scenario::healthy(),
+    };
     cfg.sensor_fault = match args.sensor_fault.as_str() {
         "none" => None,
         "load-drift" => Some(SensorFault::LoadDrift {
@@ -109,7 +112,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     println!(
         "simulated {} days ({} scenario, seed {}): {} trips, {} raw rows, {} aligned rows; wrote {} in {}",
         s.days,
-        mode.name(),
+        truth_name(mode),
         args.seed,
         s.trips,
         s.raw_rows,

@@ -219,8 +219,7 @@ impl RawCsvWriter {
     pub fn create(path: &Path) -> Result<Self> {
         let file = File::create(path).map_err(|e| Error::io(path, e))?;
         let mut out = BufWriter::with_capacity(1 << 20, file);
-        out.write_all(b"time,signal,value\n")
-            .map_err(|e| Error::io(path, e))?;
+        out.write_all(RAW_HEADER).map_err(|e| Error::io(path, e))?;
         Ok(RawCsvWriter {
             path: path.into(),
             out,
@@ -235,12 +234,7 @@ impl RawCsvWriter {
     /// [`Error::Io`] when writing fails.
     pub fn write(&mut self, r: &RawRow) -> Result<()> {
         self.line.clear();
-        push_fixed(&mut self.line, r.time, 3);
-        self.line.push(b',');
-        self.line.extend_from_slice(r.signal.name().as_bytes());
-        self.line.push(b',');
-        push_fixed(&mut self.line, r.value, decimals(r.signal));
-        self.line.push(b'\n');
+        push_raw_line(&mut self.line, r);
         self.out
             .write_all(&self.line)
             .map_err(|e| Error::io(&self.path, e))?;
@@ -256,6 +250,20 @@ impl RawCsvWriter {
         self.out.flush().map_err(|e| Error::io(&self.path, e))?;
         Ok(self.rows)
     }
+}
+
+/// The header of `raw.csv`, with its line end.
+pub const RAW_HEADER: &[u8] = b"time,signal,value\n";
+
+/// Appends one `raw.csv` line: time in ms, the signal's name, the value at the signal's
+/// resolution (empty when not finite), a line end.
+pub fn push_raw_line(out: &mut Vec<u8>, r: &RawRow) {
+    push_fixed(out, r.time, 3);
+    out.push(b',');
+    out.extend_from_slice(r.signal.name().as_bytes());
+    out.push(b',');
+    push_fixed(out, r.value, decimals(r.signal));
+    out.push(b'\n');
 }
 
 /// Columns of `aligned.csv`: DATA.md §2 then the simulator's truth.

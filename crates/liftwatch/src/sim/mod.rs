@@ -63,6 +63,7 @@ pub mod logger;
 pub mod motion;
 pub mod plant;
 pub mod scenario;
+pub mod stream;
 pub mod traffic;
 
 use std::collections::VecDeque;
@@ -72,6 +73,7 @@ use serde::Serialize;
 
 use crate::elevator::Elevator;
 use crate::error::{Error, Result};
+use crate::mode::FaultMode;
 use crate::model::physics::PhysParams;
 use crate::rng::Rng;
 use crate::sample::{AlignedSeries, Sample};
@@ -79,7 +81,7 @@ use crate::sample::{AlignedSeries, Sample};
 pub use logger::{AlignedCsvWriter, RawCsvWriter, RawRow, Signal, ALIGNED_HEADER, SIMULATED};
 pub use motion::{Kinematics, SCurve};
 pub use plant::SimElevator;
-pub use scenario::{Effects, FaultMode, Ramp, Scenario, SensorFault};
+pub use scenario::{parse_scenario, truth_name, Effects, Ramp, Scenario, SensorFault};
 pub use traffic::{Call, Traffic};
 
 use logger::{RawLogger, SensorClock};
@@ -124,8 +126,8 @@ impl SimConfig {
         }
     }
 
-    /// The same run with `scenario` spread over it: onset at 40 % of the span, linear ramp to
-    /// full severity at the end ([`Scenario::spread_over`]).
+    /// The same run with the machine mode `mode` spread over it: onset at 40 % of the span,
+    /// linear ramp to full severity at the end ([`Scenario::spread_over`]).
     pub fn with_mode(mut self, mode: FaultMode) -> Self {
         self.scenario = Scenario::spread_over(mode, self.start_s, self.duration_s());
         self

@@ -29,46 +29,57 @@
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
+use crate::mode::FaultMode;
 
-/// The machine degradation a run simulates.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum FaultMode {
-    /// No degradation.
-    Healthy,
-    /// Drive degradation: Kd up.
-    Motor,
-    /// Brake drag in downward and decelerating travel.
-    Brake,
-    /// Guide-rail friction: F_c and c up.
-    Friction,
+/// The name of a run's truth: `healthy` for none, else the mode's (`motor`, `brake`, …);
+/// the word `truth.json`, `evaluation.json` and the command line use.
+pub fn truth_name(mode: Option<FaultMode>) -> &'static str {
+    mode.map_or("healthy", FaultMode::as_str)
 }
 
-impl FaultMode {
-    /// The lowercase name used on the command line and in `truth.json`.
-    pub fn name(self) -> &'static str {
-        match self {
-            FaultMode::Healthy => "healthy",
-            FaultMode::Motor => "motor",
-            FaultMode::Brake => "brake",
-            FaultMode::Friction => "friction",
-        }
+/// Parses a scenario name of the command line: `healthy` (None), `motor`, `brake` or
+/// `friction`.
+///
+/// # Errors
+/// [`Error::InvalidConfig`] for any other name, `sensor` and `unknown` included.
+pub fn parse_scenario(s: &str) -> Result<Option<FaultMode>> {
+    match s {
+        "healthy" => Ok(None),
+        "motor" => Ok(Some(FaultMode::Motor)),
+        "brake" => Ok(Some(FaultMode::Brake)),
+        "friction" => Ok(Some(FaultMode::Friction)),
+        _ => Err(Error::InvalidConfig {
+            field: "scenario",
+            why: format!("`{s}` is not a scenario, expected healthy, motor, brake or friction"),
+        }),
     }
 }
 
-impl std::str::FromStr for FaultMode {
-    type Err = Error;
-    fn from_str(s: &str) -> Result<Self> {
-        match s {
-            "healthy" => Ok(FaultMode::Healthy),
-            "motor" => Ok(FaultMode::Motor),
-            "brake" => Ok(FaultMode::Brake),
-            "friction" => Ok(FaultMode::Friction),
-            _ => Err(Error::InvalidConfig {
-                field: "scenario",
-                why: format!("`{s}` is not a scenario, expected healthy, motor, brake or friction"),
-            }),
+/// Serde of an `Option<FaultMode>` truth as one name ([`truth_name`]): `healthy` for None.
+/// Use as `#[serde(with = "crate::sim::scenario::healthy_or_mode")]`.
+pub mod healthy_or_mode {
+    use serde::{de::Error as _, Deserialize, Deserializer, Serializer};
+
+    use super::{truth_name, FaultMode};
+
+    /// Writes [`truth_name`].
+    ///
+    /// # Errors
+    /// The serializer's.
+    pub fn serialize<S: Serializer>(mode: &Option<FaultMode>, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(truth_name(*mode))
+    }
+
+    /// Reads `healthy` as None, a [`FaultMode`] name as that mode.
+    ///
+    /// # Errors
+    /// Any other name.
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Option<FaultMode>, D::Error> {
+        let name = String::deserialize(d)?;
+        if name == "healthy" {
+            return Ok(None);
         }
+        name.parse().map(Some).map_err(D::Error::custom)
     }
 }
 
@@ -102,8 +113,10 @@ impl std::str::FromStr for Ramp {
 /// A machine degradation with its timing and size.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Scenario {
-    /// Which degradation.
-    pub mode: FaultMode,
+    /// Which degradation: a machine mode of [`FaultMode`], None when healthy (written
+    /// `healthy`).
+    #[serde(with = "healthy_or_mode")]
+    pub mode: Option<FaultMode>,
     /// Onset time (s, same clock as the telemetry).
     pub onset_s: f64,
     /// Shape of the growth.
@@ -137,7 +150,7 @@ impl Scenario {
     /// No degradation at all.
     pub fn healthy() -> Self {
         Scenario {
-            mode: FaultMode::Healthy,
+            mode: None,
             onset_s: f64::INFINITY,
             ramp: Ramp::Step,
             full_at_s: f64::INFINITY,
@@ -148,11 +161,11 @@ impl Scenario {
         }
     }
 
-    /// A degradation of `mode` with explicit timing and severity.
+    /// A degradation of the machine mode `mode` with explicit timing and severity.
     ///
     /// # Errors
-    /// [`Error::InvalidConfig`] when the times are not finite, full comes before onset or the
-    /// severity is negative.
+    /// [`Error::InvalidConfig`] when `mode` is not a machine mode (`sensor`, `unknown`), the
+    /// times are not finite, full comes before onset or the severity is negative.
     pub fn new(
         mode: FaultMode,
         onset_s: f64,
@@ -160,8 +173,13 @@ impl Scenario {
         full_at_s: f64,
         severity: f64,
     ) -> Result<Self> {
-        if mode == FaultMode::Healthy {
-            return Ok(Scenario::healthy());
+        if !mode.is_machine() {
+            return Err(Error::InvalidConfig {
+                field: "scenario",
+                why: format!(
+                    "`{mode}` is not a machine degradation, expected motor, brake or friction"
+                ),
+            });
         }
         if !onset_s.is_finite() || !full_at_s.is_finite() || full_at_s < onset_s {
             return Err(Error::InvalidConfig {
@@ -181,7 +199,7 @@ impl Scenario {
             full_at_s
         };
         Ok(Scenario {
-            mode,
+            mode: Some(mode),
             onset_s,
             ramp,
             full_at_s,
@@ -205,7 +223,7 @@ impl Scenario {
 
     /// σ(t): the severity at time `t`.
     pub fn severity_at(&self, t: f64) -> f64 {
-        if self.mode == FaultMode::Healthy || t < self.onset_s {
+        if self.mode.is_none() || t < self.onset_s {
             return 0.0;
         }
         if t >= self.full_at_s || self.full_at_s <= self.onset_s {
@@ -230,10 +248,11 @@ impl Scenario {
             brake_drag_n: 0.0,
         };
         match self.mode {
-            FaultMode::Healthy => {}
-            FaultMode::Motor => e.kd_factor += self.motor_kd_gain * sigma,
-            FaultMode::Friction => e.friction_factor += self.friction_gain * sigma,
-            FaultMode::Brake => e.brake_drag_n = self.brake_drag_ratio * sigma * f_c,
+            Some(FaultMode::Motor) => e.kd_factor += self.motor_kd_gain * sigma,
+            Some(FaultMode::Friction) => e.friction_factor += self.friction_gain * sigma,
+            Some(FaultMode::Brake) => e.brake_drag_n = self.brake_drag_ratio * sigma * f_c,
+            // Healthy; `new` refuses the modes that are not the machine's.
+            None | Some(FaultMode::Sensor | FaultMode::Unknown) => {}
         }
         e
     }
@@ -323,14 +342,30 @@ mod tests {
     fn bad_timing_is_refused_and_names_are_parsed() {
         assert!(Scenario::new(FaultMode::Motor, 10.0, Ramp::Linear, 5.0, 1.0).is_err());
         assert!(Scenario::new(FaultMode::Motor, 0.0, Ramp::Linear, 5.0, -1.0).is_err());
-        assert_eq!("brake".parse::<FaultMode>().unwrap(), FaultMode::Brake);
-        assert!("rust".parse::<FaultMode>().is_err());
-        assert_eq!(
-            Scenario::spread_over(FaultMode::Healthy, 0.0, 10.0).severity_at(1e9),
-            0.0
-        );
+        assert_eq!(parse_scenario("brake").unwrap(), Some(FaultMode::Brake));
+        assert_eq!(parse_scenario("healthy").unwrap(), None);
+        assert!(parse_scenario("rust").is_err() && parse_scenario("sensor").is_err());
+        assert!(Scenario::new(FaultMode::Sensor, 0.0, Ramp::Step, 0.0, 1.0).is_err());
+        assert_eq!(Scenario::healthy().severity_at(1e9), 0.0);
         let s = Scenario::spread_over(FaultMode::Motor, 0.0, 100.0);
         assert_eq!((s.onset_s, s.full_at_s), (40.0, 100.0));
+    }
+
+    #[test]
+    fn truth_names_are_the_words_of_the_files() {
+        let json = |m| {
+            serde_json::to_string(&Scenario {
+                mode: m,
+                ..Scenario::healthy()
+            })
+            .unwrap()
+        };
+        assert!(json(None).starts_with(r#"{"mode":"healthy","#));
+        let s = Scenario::new(FaultMode::Motor, 0.0, Ramp::Step, 0.0, 1.0).unwrap();
+        let text = serde_json::to_string(&s).unwrap();
+        assert!(text.starts_with(r#"{"mode":"motor","#), "{text}");
+        assert_eq!(serde_json::from_str::<Scenario>(&text).unwrap(), s);
+        assert_eq!(truth_name(Some(FaultMode::Sensor)), "sensor");
     }
 
     #[test]

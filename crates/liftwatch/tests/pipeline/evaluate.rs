@@ -1,9 +1,10 @@
 //! The evaluation suite end to end on short spans: one elevator, a healthy run and a strong
 //! friction step, through simulation, fit, both monitor methods and both control charts.
 
-use liftwatch::alarm::FaultMode as Named;
-use liftwatch::evaluate::{self, Case, MethodResult, SuiteConfig, Truth};
-use liftwatch::sim::{FaultMode, Ramp, Scenario};
+use liftwatch::evaluate::{self, Case, MethodResult, SuiteConfig};
+use liftwatch::mode::FaultMode;
+use liftwatch::mode::FaultMode as Named;
+use liftwatch::sim::{Ramp, Scenario};
 
 fn method<'a>(r: &'a evaluate::CaseResult, name: &str) -> &'a MethodResult {
     r.methods
@@ -29,7 +30,7 @@ fn strong_fault_is_detected_and_healthy_run_stays_quiet() {
     let healthy = Case {
         name: "healthy".into(),
         elevator: 0,
-        truth: Truth::Healthy,
+        truth: None,
         scenario: Scenario::healthy(),
         sensor_fault: None,
         days: 1.5,
@@ -68,7 +69,7 @@ fn strong_fault_is_detected_and_healthy_run_stays_quiet() {
     let fault = Case {
         name: "friction step".into(),
         elevator: 0,
-        truth: Truth::Friction,
+        truth: Some(FaultMode::Friction),
         scenario: Scenario::new(FaultMode::Friction, onset, Ramp::Step, onset, 4.0).unwrap(),
         sensor_fault: None,
         days: 2.5,
@@ -96,7 +97,7 @@ fn strong_fault_is_detected_and_healthy_run_stays_quiet() {
     let agg = evaluate::aggregate(&[h, f]);
     let lw_fric = agg
         .iter()
-        .find(|a| a.method == "liftwatch" && a.truth == Truth::Friction)
+        .find(|a| a.method == "liftwatch" && a.truth == Some(FaultMode::Friction))
         .unwrap();
     assert_eq!((lw_fric.cases, lw_fric.missed), (1, 0));
     assert_eq!(lw_fric.worst_delay_days, Some(delay));

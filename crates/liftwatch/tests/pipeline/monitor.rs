@@ -5,12 +5,14 @@
 //! on healthy data, the fault raises an advisory after (never before) its onset and names
 //! the motor, and the conventional baseline is compared on the same run.
 
-use liftwatch::alarm::{FaultMode as Named, Level};
+use liftwatch::alarm::Level;
 use liftwatch::fit::{fit, FittedModel};
+use liftwatch::mode::FaultMode;
+use liftwatch::mode::FaultMode as Named;
 use liftwatch::model::TrainConfig;
 use liftwatch::monitor::{Method, MonitorRow};
 use liftwatch::rng::Rng;
-use liftwatch::sim::{simulate, FaultMode, Ramp, Scenario, SimConfig, SimElevator};
+use liftwatch::sim::{simulate, Ramp, Scenario, SimConfig, SimElevator};
 use liftwatch::{Elevator, Sample};
 
 const DAY: f64 = 86_400.0;

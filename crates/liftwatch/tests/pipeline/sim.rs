@@ -1,8 +1,9 @@
 //! The simulator against physics and against its own declarations.
 
 use liftwatch::elevator::G;
+use liftwatch::mode::FaultMode;
 use liftwatch::sim::{
-    self, FaultMode, Ramp, RawRow, Scenario, SensorFault, Signal, SimConfig, SimSink, TruthRow,
+    self, Ramp, RawRow, Scenario, SensorFault, Signal, SimConfig, SimSink, TruthRow,
 };
 use liftwatch::{Elevator, Result};
 

@@ -1,0 +1,436 @@
+//! Evaluation, the suite: the simulated fleet and its cases, the training of each elevator
+//! (hidden plant, healthy day, fit, chart limits) and the monitored run of each case.
+//!
+//! ```text
+//! per elevator: plant (seed tag 1) → healthy training run (tag 2) → fit → chart limits (tag 3)
+//! per case:     same plant, seed tag 100 + case index → monitored run, onset at 40 % of the span
+//!               → Monitor(Pinn), Monitor(Threshold), trips → metrics
+//! ```
+
+use std::time::Instant;
+
+use serde::Serialize;
+
+use super::charts::{ChartCalibration, Cusum, Ewma, CUSUM_K, EWMA_LAMBDA};
+use super::metrics::{MethodResult, Metrics};
+use super::trips::{healthy_trip_means, TripGrouper, TripSummary};
+use super::DAY_S;
+use crate::alarm::{Event, Level};
+use crate::elevator::Elevator;
+use crate::error::{Error, Result};
+use crate::fit::{fit, FittedModel};
+use crate::mode::FaultMode;
+use crate::model::TrainConfig;
+use crate::monitor::{Method, Monitor, MonitorRow};
+use crate::rng::Rng;
+use crate::sim::scenario::healthy_or_mode;
+use crate::sim::{self, Ramp, Scenario, SensorFault, SimConfig, SimElevator, SimSink, TruthRow};
+
+/// One elevator of the suite.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct FleetElevator {
+    /// Short name used in case names.
+    pub name: String,
+    /// Its description.
+    pub elevator: Elevator,
+}
+
+/// One case of the suite.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Case {
+    /// Unique name, e.g. `E2 friction linear S1.0`.
+    pub name: String,
+    /// Index into the suite's elevators.
+    pub elevator: usize,
+    /// What is wrong: a [`FaultMode`], None when healthy (written `healthy`).
+    #[serde(with = "healthy_or_mode")]
+    pub truth: Option<FaultMode>,
+    /// Machine degradation (healthy for sensor cases).
+    pub scenario: Scenario,
+    /// Sensor fault, if any.
+    pub sensor_fault: Option<SensorFault>,
+    /// Monitored span (days).
+    pub days: f64,
+    /// Onset (days from the start); None when healthy.
+    pub onset_days: Option<f64>,
+}
+
+/// Settings of a suite.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct SuiteConfig {
+    /// Base seed; every run's seed derives from it.
+    pub seed: u64,
+    /// The small subset for tests and CI.
+    pub quick: bool,
+    /// Healthy training span per elevator (days).
+    pub train_days: f64,
+    /// Monitored span of a fault case (days).
+    pub fault_days: f64,
+    /// Monitored span of a healthy case (days).
+    pub healthy_days: f64,
+    /// Worker threads (results do not depend on it).
+    pub threads: usize,
+}
+
+impl SuiteConfig {
+    /// The full suite (`quick = false`) or its small subset.
+    pub fn new(seed: u64, quick: bool) -> Self {
+        SuiteConfig {
+            seed,
+            quick,
+            train_days: 7.0,
+            fault_days: if quick { 8.0 } else { 25.0 },
+            healthy_days: if quick { 8.0 } else { 30.0 },
+            threads: 2,
+        }
+    }
+}
+
+/// The elevators of the suite: 630-1600 kg, 1-2.5 m/s, 8-40 floors (the quick subset uses
+/// the middle one).
+pub fn fleet(quick: bool) -> Vec<FleetElevator> {
+    let all = [
+        ("E1", Elevator::new(630.0, 1.0, 8)),
+        ("E2", Elevator::new(1000.0, 1.75, 20)),
+        ("E3", Elevator::new(1600.0, 2.5, 40)),
+    ];
+    all.into_iter()
+        .filter(|(n, _)| !quick || *n == "E2")
+        .map(|(n, e)| FleetElevator {
+            name: n.into(),
+            elevator: e,
+        })
+        .collect()
+}
+
+/// The cases of the suite for `fleet`.
+///
+/// # Errors
+/// [`Error::InvalidConfig`] when a span is not positive.
+pub fn cases(cfg: &SuiteConfig, fleet: &[FleetElevator]) -> Result<Vec<Case>> {
+    if !(cfg.fault_days > 0.0 && cfg.healthy_days > 0.0 && cfg.train_days > 0.0) {
+        return Err(Error::InvalidConfig {
+            field: "evaluate.days",
+            why: "every span must be positive".into(),
+        });
+    }
+    let span = cfg.fault_days * DAY_S;
+    let onset = 0.4 * span;
+    let mut out = Vec::new();
+    for (ei, fe) in fleet.iter().enumerate() {
+        out.push(Case {
+            name: format!("{} healthy", fe.name),
+            elevator: ei,
+            truth: None,
+            scenario: Scenario::healthy(),
+            sensor_fault: None,
+            days: cfg.healthy_days,
+            onset_days: None,
+        });
+        let shapes: Vec<(Ramp, f64)> = if cfg.quick {
+            vec![(Ramp::Linear, 1.0)]
+        } else {
+            vec![
+                (Ramp::Linear, 1.0),
+                (Ramp::Linear, 0.5),
+                (Ramp::Exponential, 1.0),
+                (Ramp::Exponential, 0.5),
+                (Ramp::Step, 0.5),
+            ]
+        };
+        let modes: &[FaultMode] = if cfg.quick {
+            &[FaultMode::Friction, FaultMode::Motor]
+        } else {
+            &[FaultMode::Motor, FaultMode::Friction, FaultMode::Brake]
+        };
+        for &mode in modes {
+            for &(ramp, sev) in &shapes {
+                out.push(Case {
+                    name: format!(
+                        "{} {} {} S{:.1}",
+                        fe.name,
+                        mode.as_str(),
+                        ramp_name(ramp),
+                        sev
+                    ),
+                    elevator: ei,
+                    truth: Some(mode),
+                    scenario: Scenario::new(mode, onset, ramp, span, sev)?,
+                    sensor_fault: None,
+                    days: cfg.fault_days,
+                    onset_days: Some(onset / DAY_S),
+                });
+            }
+        }
+        let mut sensors = vec![(
+            "stuck-speed",
+            SensorFault::StuckSpeed {
+                onset_s: onset,
+                duration_s: 3600.0,
+            },
+        )];
+        if !cfg.quick {
+            sensors.push((
+                "load-drift",
+                SensorFault::LoadDrift {
+                    onset_s: onset,
+                    pct_per_day: 2.0,
+                },
+            ));
+        }
+        for (name, f) in sensors {
+            out.push(Case {
+                name: format!("{} sensor {name}", fe.name),
+                elevator: ei,
+                truth: Some(FaultMode::Sensor),
+                scenario: Scenario::healthy(),
+                sensor_fault: Some(f),
+                days: cfg.fault_days,
+                onset_days: Some(onset / DAY_S),
+            });
+        }
+    }
+    Ok(out)
+}
+
+fn ramp_name(r: Ramp) -> &'static str {
+    match r {
+        Ramp::Step => "step",
+        Ramp::Linear => "linear",
+        Ramp::Exponential => "exponential",
+    }
+}
+
+/// Seed of run `tag` of elevator `e`: distinct for the plant, training and each case.
+fn derive_seed(base: u64, e: usize, tag: u64) -> u64 {
+    let mut r = Rng::new(base ^ ((e as u64 + 1) << 40) ^ tag.wrapping_mul(0x9E37_79B9_7F4A_7C15));
+    r.next_u64()
+}
+
+/// The trained reference of one elevator: hidden plant, model and chart limits.
+#[derive(Clone, Debug)]
+pub struct Trained {
+    /// The hidden plant shared by the training and the monitored runs.
+    pub plant: SimElevator,
+    /// The fitted model.
+    pub model: FittedModel,
+    /// The charts' standardisation and limits.
+    pub charts: ChartCalibration,
+}
+
+/// Summary of one elevator's training for the report.
+#[derive(Clone, Debug, Serialize)]
+pub struct ElevatorReport {
+    /// Name and description.
+    #[serde(flatten)]
+    pub fleet: FleetElevator,
+    /// Chart calibration.
+    pub charts: ChartCalibration,
+    /// liftwatch's advisory threshold on R.
+    pub advisory_threshold: f64,
+    /// σ_U of the fit (V).
+    pub sigma_u_v: f64,
+    /// Threshold method's voltage limit (V) and friction limit (N).
+    pub threshold_limits: (f64, f64),
+    /// Wall time of simulation, fit and calibration (s).
+    pub seconds: f64,
+}
+
+/// Draws the plant, simulates the healthy training run, fits and calibrates the charts.
+///
+/// # Errors
+/// Whatever simulation, fit or calibration fail with.
+pub fn train(fe: &FleetElevator, e: usize, cfg: &SuiteConfig) -> Result<Trained> {
+    let plant =
+        SimElevator::from_elevator(&fe.elevator, &mut Rng::new(derive_seed(cfg.seed, e, 1)));
+    let mut sc = SimConfig::new(
+        fe.elevator.clone(),
+        cfg.train_days,
+        derive_seed(cfg.seed, e, 2),
+    );
+    sc.plant = Some(plant.clone());
+    let series = sim::simulate(&sc)?.aligned();
+    let outcome = fit(&series, &fe.elevator, &TrainConfig::default(), &mut |_| {})?;
+    let model = outcome.model;
+    let means = healthy_trip_means(&model, &series);
+    let charts = ChartCalibration::calibrate(&means, cfg.train_days, derive_seed(cfg.seed, e, 3))?;
+    Ok(Trained {
+        plant,
+        model,
+        charts,
+    })
+}
+
+/// One case's results.
+#[derive(Clone, Debug, Serialize)]
+pub struct CaseResult {
+    /// The case.
+    #[serde(flatten)]
+    pub case: Case,
+    /// Trips seen by the charts.
+    pub trips: usize,
+    /// Mean standardised trip residual z over the last fifth of the span: the shift the charts
+    /// had to see at (nearly) full severity, in units of the healthy trip-mean spread σ0.
+    pub late_mean_z: f64,
+    /// Results of liftwatch, threshold, CUSUM, EWMA in that order.
+    pub methods: Vec<MethodResult>,
+    /// Wall time of the case (s).
+    pub seconds: f64,
+}
+
+/// A sink that monitors as the simulator produces, keeping only what the metrics need.
+pub(super) struct CaseSink {
+    pinn: Monitor,
+    thr: Monitor,
+    seg_pinn: TripGrouper,
+    seg_thr: TripGrouper,
+    /// Trips of the liftwatch monitor's rows, in order.
+    pub trips: Vec<TripSummary>,
+    /// Trips of the threshold monitor's rows, in order.
+    pub thr_trips: Vec<TripSummary>,
+    /// Events of the liftwatch monitor.
+    pub events: Vec<Event>,
+    /// Times the threshold method's alarm switched on.
+    pub thr_activations: Vec<f64>,
+    thr_prev: Level,
+    /// True severity σ per second from the start (f32 keeps a month in a few MB).
+    severity: Vec<f32>,
+    start: f64,
+}
+
+impl CaseSink {
+    fn pinn_row(&mut self, r: &MonitorRow) {
+        if let Some(e) = r.event {
+            self.events.push(e);
+        }
+        self.trips.extend(self.seg_pinn.push(r));
+    }
+
+    fn thr_row(&mut self, r: &MonitorRow) {
+        if r.level == Level::Alarm && self.thr_prev != Level::Alarm {
+            self.thr_activations.push(r.time);
+        }
+        self.thr_prev = r.level;
+        self.thr_trips.extend(self.seg_thr.push(r));
+    }
+
+    fn finish(&mut self) {
+        for r in self.pinn.finish() {
+            self.pinn_row(&r);
+        }
+        for r in self.thr.finish() {
+            self.thr_row(&r);
+        }
+        self.trips.extend(self.seg_pinn.close());
+        self.thr_trips.extend(self.seg_thr.close());
+    }
+
+    pub(super) fn severity_at(&self, t: f64) -> f64 {
+        let i = (t - self.start).round();
+        if i < 0.0 {
+            return 0.0;
+        }
+        self.severity
+            .get(i as usize)
+            .or(self.severity.last())
+            .map_or(f64::NAN, |&s| f64::from(s))
+    }
+}
+
+impl SimSink for CaseSink {
+    fn raw(&mut self, _row: sim::RawRow) -> Result<()> {
+        Ok(())
+    }
+
+    fn truth(&mut self, row: &TruthRow) -> Result<()> {
+        let i = (row.sample.time - self.start).round().max(0.0) as usize;
+        if self.severity.len() <= i {
+            let last = self.severity.last().copied().unwrap_or(0.0);
+            self.severity.resize(i + 1, last);
+        }
+        self.severity[i] = row.severity as f32;
+        if let Some(r) = self.pinn.push(&row.sample) {
+            self.pinn_row(&r);
+        }
+        if let Some(r) = self.thr.push(&row.sample) {
+            self.thr_row(&r);
+        }
+        Ok(())
+    }
+}
+
+/// Simulates and monitors one case with its elevator's trained reference.
+///
+/// # Errors
+/// Whatever the simulation fails with.
+pub fn run_case(
+    case: &Case,
+    trained: &Trained,
+    cfg: &SuiteConfig,
+    index: usize,
+) -> Result<CaseResult> {
+    let clock = Instant::now();
+    let mut sc = SimConfig::new(
+        trained.model.hybrid.elevator.clone(),
+        case.days,
+        derive_seed(cfg.seed, case.elevator, 100 + index as u64),
+    );
+    sc.plant = Some(trained.plant.clone());
+    sc.scenario = case.scenario.clone();
+    sc.sensor_fault = case.sensor_fault.clone();
+    let model = &trained.model;
+    let mut sink = CaseSink {
+        pinn: Monitor::new(model, Method::Pinn),
+        thr: Monitor::new(model, Method::Threshold),
+        seg_pinn: TripGrouper::new(model.hybrid.scales.sigma_u_v),
+        seg_thr: TripGrouper::new(model.hybrid.scales.sigma_u_v),
+        trips: Vec::new(),
+        thr_trips: Vec::new(),
+        events: Vec::new(),
+        thr_activations: Vec::new(),
+        thr_prev: Level::Normal,
+        severity: Vec::with_capacity((case.days * DAY_S) as usize + 2),
+        start: sc.start_s,
+    };
+    sim::run(&sc, &mut sink, &mut |_| {})?;
+    sink.finish();
+    let onset = case.onset_days.map(|d| sc.start_s + d * DAY_S);
+    let end = sc.start_s + sc.duration_s();
+    let exposure_days = (onset.unwrap_or(end) - sc.start_s) / DAY_S;
+    let ctx = Metrics {
+        onset,
+        exposure_days,
+        truth: case.truth,
+        sink: &sink,
+    };
+    let methods = vec![
+        ctx.liftwatch(),
+        ctx.threshold(),
+        ctx.chart(
+            "cusum",
+            Cusum::new(CUSUM_K, trained.charts.cusum_h),
+            &trained.charts,
+        ),
+        ctx.chart(
+            "ewma",
+            Ewma::new(EWMA_LAMBDA, trained.charts.ewma_l),
+            &trained.charts,
+        ),
+    ];
+    Ok(CaseResult {
+        case: case.clone(),
+        trips: sink.trips.len(),
+        late_mean_z: {
+            let late = end - 0.2 * sc.duration_s();
+            let z: Vec<f64> = sink
+                .trips
+                .iter()
+                .filter(|t| t.end >= late)
+                .map(|t| trained.charts.standardise(t.mean_e_u))
+                .collect();
+            z.iter().sum::<f64>() / z.len().max(1) as f64
+        },
+        methods,
+        seconds: clock.elapsed().as_secs_f64(),
+    })
+}

@@ -10,11 +10,12 @@
 //! ```no_run
 //! # fn main() -> Result<(), Box<dyn std::error::Error>> {
 //! use liftwatch::align::{read_series, AlignConfig};
-//! use liftwatch_report::{write_report, Analysis};
+//! use liftwatch::monitor::Analysis;
+//! use liftwatch_report::{write_report, ReportInputs};
 //! let model = liftwatch::file::load("model.json".as_ref())?;
 //! let (series, _) = read_series("data.csv".as_ref(), &AlignConfig::default())?;
 //! let analysis = Analysis::run(&model, &series); // features, both monitors, events
-//! let files = write_report("report".as_ref(), &analysis.inputs(&model, &series, "data.csv"))?;
+//! let files = write_report("report".as_ref(), &ReportInputs::new(&analysis, &model, &series, "data.csv"))?;
 //! # Ok(()) }
 //! ```
 //!
@@ -49,7 +50,8 @@ use std::path::{Path, PathBuf};
 use liftwatch::alarm::Event;
 use liftwatch::features::Features;
 use liftwatch::fit::FittedModel;
-use liftwatch::monitor::{Method, Monitor, MonitorRow};
+pub use liftwatch::monitor::Analysis;
+use liftwatch::monitor::MonitorRow;
 use liftwatch::AlignedSeries;
 
 /// What can go wrong while writing a report.
@@ -87,9 +89,9 @@ pub struct ReportInputs<'a> {
     pub series: &'a AlignedSeries,
     /// Its features (one row per sample, and the complete trips), computed with `model.features`.
     pub features: &'a Features,
-    /// Monitor rows of the paper's method ([`Method::Pinn`]) over `series`.
+    /// Monitor rows of the paper's method ([`liftwatch::monitor::Method::Pinn`]) over `series`.
     pub pinn: &'a [MonitorRow],
-    /// Monitor rows of the fixed-threshold baseline ([`Method::Threshold`]) over `series`.
+    /// Monitor rows of the fixed-threshold baseline ([`liftwatch::monitor::Method::Threshold`]) over `series`.
     pub threshold: &'a [MonitorRow],
     /// The level changes of the paper's method.
     pub events: &'a [Event],
@@ -97,50 +99,22 @@ pub struct ReportInputs<'a> {
     pub source: &'a str,
 }
 
-/// What a report is drawn from, computed once from a model and a series: features, both
-/// monitors and the events. Owned, so that callers (the `report` and `demo` verbs) need not
-/// repeat the sequence.
-#[derive(Clone, Debug)]
-pub struct Analysis {
-    /// Features of the series, with the model's feature settings.
-    pub features: Features,
-    /// Monitor rows of the paper's method.
-    pub pinn: Vec<MonitorRow>,
-    /// Monitor rows of the fixed-threshold baseline.
-    pub threshold: Vec<MonitorRow>,
-    /// The paper's method's events.
-    pub events: Vec<Event>,
-}
-
-impl Analysis {
-    /// Runs features and both monitors over `series`.
-    pub fn run(model: &FittedModel, series: &AlignedSeries) -> Self {
-        let features = liftwatch::features::extract(series, &model.features);
-        let pinn = monitor_rows(model, series, Method::Pinn);
-        let threshold = monitor_rows(model, series, Method::Threshold);
-        let events = pinn.iter().filter_map(|r| r.event).collect();
-        Analysis {
-            features,
-            pinn,
-            threshold,
-            events,
-        }
-    }
-
-    /// The report inputs borrowing this analysis.
-    pub fn inputs<'a>(
-        &'a self,
+impl<'a> ReportInputs<'a> {
+    /// The report inputs borrowing an analysis of `series` with `model`
+    /// ([`liftwatch::monitor::Analysis`]: features, both monitors, events).
+    pub fn new(
+        analysis: &'a Analysis,
         model: &'a FittedModel,
         series: &'a AlignedSeries,
         source: &'a str,
-    ) -> ReportInputs<'a> {
+    ) -> Self {
         ReportInputs {
             model,
             series,
-            features: &self.features,
-            pinn: &self.pinn,
-            threshold: &self.threshold,
-            events: &self.events,
+            features: &analysis.features,
+            pinn: &analysis.pinn,
+            threshold: &analysis.threshold,
+            events: &analysis.events,
             source,
         }
     }
@@ -158,18 +132,6 @@ pub const FIGURES: [&str; 9] = [
     "comparison",
     "usage",
 ];
-
-/// Runs the streaming monitor of `method` over the whole series: one row per sample.
-pub fn monitor_rows(
-    model: &FittedModel,
-    series: &AlignedSeries,
-    method: Method,
-) -> Vec<MonitorRow> {
-    let mut m = Monitor::new(model, method);
-    let mut rows: Vec<MonitorRow> = series.samples.iter().filter_map(|s| m.push(s)).collect();
-    rows.extend(m.finish());
-    rows
-}
 
 /// Writes every figure (SVG and PNG) and `index.html` into `dir` (created if missing);
 /// returns the paths written, `index.html` last.
@@ -207,6 +169,7 @@ pub fn write_report(dir: &Path, inputs: &ReportInputs) -> Result<Vec<PathBuf>, E
 mod tests {
     use super::*;
     use liftwatch::model::TrainConfig;
+    use liftwatch::monitor::Method;
     use liftwatch::sim::SimConfig;
     use liftwatch::Elevator;
 
@@ -248,7 +211,7 @@ mod tests {
             "one monitor row per sample"
         );
         let features = &analysis.features;
-        let inputs = analysis.inputs(&model, &series, "sim <seed 11>.csv");
+        let inputs = ReportInputs::new(&analysis, &model, &series, "sim <seed 11>.csv");
         let dir = TempDir::new("all");
         let written = write_report(&dir.0, &inputs).expect("report is written");
         assert_eq!(written.len(), 2 * FIGURES.len() + 1);
@@ -318,8 +281,8 @@ mod tests {
             *s = liftwatch::Sample::missing(s.time);
         }
         let f_short = liftwatch::features::extract(&short, &model.features);
-        let p_short = monitor_rows(&model, &short, Method::Pinn);
-        let t_short = monitor_rows(&model, &short, Method::Threshold);
+        let p_short = liftwatch::monitor::run(&model, &short.samples, Method::Pinn);
+        let t_short = liftwatch::monitor::run(&model, &short.samples, Method::Threshold);
         let small = ReportInputs {
             series: &short,
             features: &f_short,

@@ -17,7 +17,6 @@
 use serde::{Deserialize, Serialize};
 
 use crate::alarm::{Event, Evidence, FaultMode, Level};
-use crate::elevator::G;
 use crate::error::{Error, Result};
 use crate::features::FeatureRow;
 use crate::model::{HybridModel, PhysParams};
@@ -77,9 +76,7 @@ impl BaselineLimits {
         let m_r = model.elevator.rated_load_kg;
         let f_u = p.force_from_voltage(x.s, x.v, x.voltage);
         let q = PhysParams::relative_height(x.floor, model.elevator.floors);
-        let inertia_and_weight =
-            (p.m0 + x.lambda * m_r) * x.a + (p.delta_m + x.lambda * m_r + p.m_rope * q) * G;
-        let friction = f64::from(x.s) * (f_u - inertia_and_weight);
+        let friction = f64::from(x.s) * (f_u - p.inertia_and_weight(x.lambda, x.a, q, m_r));
         let above_line = x.voltage - (p.u0 + p.ke * x.v.abs());
         (friction, above_line)
     }

@@ -133,6 +133,36 @@ pub fn run<'a>(
     rows
 }
 
+/// What a report or a demo is drawn from, computed once from a model and a series: its
+/// features and both methods' rows over it, with the paper's method's events.
+#[derive(Clone, Debug)]
+pub struct Analysis {
+    /// Features of the series, with the model's feature settings.
+    pub features: crate::features::Features,
+    /// Monitor rows of the paper's method.
+    pub pinn: Vec<MonitorRow>,
+    /// Monitor rows of the fixed-threshold baseline.
+    pub threshold: Vec<MonitorRow>,
+    /// The paper's method's events.
+    pub events: Vec<Event>,
+}
+
+impl Analysis {
+    /// Runs the features and both monitors over `series` ([`run`]).
+    pub fn run(model: &FittedModel, series: &crate::sample::AlignedSeries) -> Self {
+        let features = crate::features::extract(series, &model.features);
+        let pinn = run(model, &series.samples, Method::Pinn);
+        let threshold = run(model, &series.samples, Method::Threshold);
+        let events = pinn.iter().filter_map(|r| r.event).collect();
+        Analysis {
+            features,
+            pinn,
+            threshold,
+            events,
+        }
+    }
+}
+
 /// Writes monitor rows as CSV with [`CSV_HEADER`]; empty fields for `NaN`.
 pub struct RowWriter<W: Write> {
     out: W,

@@ -14,13 +14,14 @@ use liftwatch::alarm::Level;
 use liftwatch::align::{read_series, AlignConfig};
 use liftwatch::mode::FaultMode;
 use liftwatch::model::TrainConfig;
+use liftwatch::monitor::Analysis;
 use liftwatch::monitor::MonitorRow;
 use liftwatch::rng::Rng;
 use liftwatch::sim::plant::SimElevator;
 use liftwatch::sim::{write_dir, SimConfig, SimTruth};
 use liftwatch::Elevator;
 use liftwatch::{file, fit};
-use liftwatch_report::{write_report, Analysis};
+use liftwatch_report::{write_report, ReportInputs};
 
 /// Flags of `liftwatch demo`.
 #[derive(Debug, clap::Args)]
@@ -150,7 +151,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let report_dir = out.join("report");
     let written = write_report(
         &report_dir,
-        &analysis.inputs(m, &watched, "demo: degraded run"),
+        &ReportInputs::new(&analysis, m, &watched, "demo: degraded run"),
     )
     .context("writing the report")?;
     let index = written

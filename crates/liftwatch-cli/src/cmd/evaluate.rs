@@ -45,10 +45,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let ev = run_suite(&cfg, &|line| eprintln!("evaluate: {line}")).context("evaluation")?;
     print!("{}", table(&ev));
     let path = args.out.join("evaluation.json");
-    let tmp = args.out.join("evaluation.json.tmp");
     let json = serde_json::to_vec_pretty(&ev).context("serialising the evaluation")?;
-    std::fs::write(&tmp, json).with_context(|| format!("cannot write {}", tmp.display()))?;
-    std::fs::rename(&tmp, &path).with_context(|| format!("cannot write {}", path.display()))?;
+    liftwatch::output::write_atomic(&path, &json)?;
     eprintln!(
         "evaluate: {} cases in {:.0} s, wrote {}",
         ev.cases.len(),

@@ -10,8 +10,9 @@ use std::path::PathBuf;
 use anyhow::Context;
 use liftwatch::align::{read_series, AlignConfig};
 use liftwatch::file;
+use liftwatch::monitor::Analysis;
 use liftwatch::output::{AtomicDir, FileArg};
-use liftwatch_report::{write_report, Analysis};
+use liftwatch_report::{write_report, ReportInputs};
 
 /// Flags of `liftwatch report`.
 #[derive(Debug, clap::Args)]
@@ -74,8 +75,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // no half-written figure behind.
     let cannot_write = || format!("cannot write the report to {}", args.out.display());
     let dir = AtomicDir::create(&args.out).with_context(cannot_write)?;
-    write_report(dir.path(), &analysis.inputs(&model, &series, &source))
-        .with_context(cannot_write)?;
+    write_report(
+        dir.path(),
+        &ReportInputs::new(&analysis, &model, &series, &source),
+    )
+    .with_context(cannot_write)?;
     dir.commit().with_context(cannot_write)?;
     println!("{}", args.out.join("index.html").display());
     Ok(())

@@ -62,8 +62,12 @@ impl Fixture {
 
     /// The report inputs of the fixture.
     pub fn inputs(&self) -> ReportInputs<'_> {
-        self.analysis
-            .inputs(&self.model, &self.series, "fixture <seed 5>.csv")
+        ReportInputs::new(
+            &self.analysis,
+            &self.model,
+            &self.series,
+            "fixture <seed 5>.csv",
+        )
     }
 }
 

@@ -140,9 +140,18 @@ impl PhysParams {
     /// F: driving force on the car side (N, + up) that the dynamics require.
     /// `q` is the relative height of [`PhysParams::relative_height`].
     pub fn force(&self, s: i8, v: f64, lambda: f64, a: f64, q: f64, rated_load_kg: f64) -> f64 {
+        self.inertia_and_weight(lambda, a, q, rated_load_kg)
+            + self.f_c * f64::from(s)
+            + self.c_visc * v
+    }
+
+    /// Newton without friction: M_tot·a + m_eq·g (N), the part of [`PhysParams::force`] that
+    /// is not F_b; the conventional baseline reads friction as what the voltage's force leaves
+    /// over it.
+    pub fn inertia_and_weight(&self, lambda: f64, a: f64, q: f64, rated_load_kg: f64) -> f64 {
         let m_tot = self.m0 + lambda * rated_load_kg;
         let m_eq = self.delta_m + lambda * rated_load_kg + self.m_rope * q;
-        m_tot * a + m_eq * G + self.f_c * f64::from(s) + self.c_visc * v
+        m_tot * a + m_eq * G
     }
 
     /// U: motor voltage magnitude (V) for a driving force `force`.

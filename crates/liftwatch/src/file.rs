@@ -138,7 +138,17 @@ pub fn save(path: &Path, model: &FittedModel) -> Result<()> {
 pub fn load(path: &Path) -> Result<FittedModel> {
     let text =
         crate::limits::read_bounded_text(path, crate::limits::MAX_MODEL_BYTES, "liftwatch model")?;
-    parse(&text).map_err(|e| match e {
+    load_str(&text, path)
+}
+
+/// Reads and checks a model document held in memory, as [`load`] does; `path` names it in
+/// messages.
+///
+/// # Errors
+/// [`Error::ModelVersion`] for another format version, [`Error::BadDocument`] when it is not
+/// a complete, sane model.
+pub fn load_str(text: &str, path: &Path) -> Result<FittedModel> {
+    parse(text).map_err(|e| match e {
         ParseError::Version(found) => Error::ModelVersion {
             path: path.into(),
             found,

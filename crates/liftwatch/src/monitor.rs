@@ -273,12 +273,21 @@ impl MonitorState {
     pub fn load(path: &Path) -> Result<MonitorState> {
         let text =
             crate::limits::read_bounded(path, crate::limits::MAX_STATE_BYTES, "monitor state")?;
+        MonitorState::from_slice(&text, path)
+    }
+
+    /// Reads a state document held in memory, as [`MonitorState::load`] does; `path` names
+    /// it in messages.
+    ///
+    /// # Errors
+    /// [`Error::BadDocument`] when it is not a monitor state of this version.
+    pub fn from_slice(text: &[u8], path: &Path) -> Result<MonitorState> {
         let bad = |why: String| Error::BadDocument {
             path: path.into(),
             what: "monitor state",
             why,
         };
-        let v: serde_json::Value = serde_json::from_slice(&text).map_err(|e| bad(e.to_string()))?;
+        let v: serde_json::Value = serde_json::from_slice(text).map_err(|e| bad(e.to_string()))?;
         let version = v.get("format_version").and_then(serde_json::Value::as_u64);
         if version != Some(u64::from(STATE_VERSION)) {
             return Err(bad(format!(

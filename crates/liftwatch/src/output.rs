@@ -239,6 +239,26 @@ pub struct FileArg<'a> {
     pub output: bool,
 }
 
+impl<'a> FileArg<'a> {
+    /// A file the command reads.
+    pub fn input(flag: &'a str, path: &'a Path) -> Self {
+        FileArg {
+            flag,
+            path,
+            output: false,
+        }
+    }
+
+    /// A file the command writes (a state it reads and writes counts as an output).
+    pub fn output(flag: &'a str, path: &'a Path) -> Self {
+        FileArg {
+            flag,
+            path,
+            output: true,
+        }
+    }
+}
+
 /// Refuses a command whose outputs name one of its inputs or each other (after following
 /// symbolic links and `..`): `--input X --out X` would replace the input, `--state` equal to
 /// `--out` would lose the state. Devices and FIFOs may repeat (`/dev/null` twice is fine).

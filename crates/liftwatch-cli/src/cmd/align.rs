@@ -46,16 +46,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .and_then(|c| c.with_reorder_window(args.reorder_window))
         .map_err(flat)?;
     check_distinct(&[
-        FileArg {
-            flag: "--input",
-            path: &args.input,
-            output: false,
-        },
-        FileArg {
-            flag: "--out",
-            path: &args.out,
-            output: true,
-        },
+        FileArg::input("--input", &args.input),
+        FileArg::output("--out", &args.out),
     ])
     .map_err(anyhow::Error::msg)?;
     let cannot_write = || format!("cannot write {}", args.out.display());

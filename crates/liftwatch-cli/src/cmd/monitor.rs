@@ -169,35 +169,15 @@ fn fault_point(name: &str) {
 /// Runs `monitor`: model, streamed input, rows, events, state, one summary line.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let mut files = vec![
-        FileArg {
-            flag: "--model",
-            path: &args.model,
-            output: false,
-        },
-        FileArg {
-            flag: "--input",
-            path: &args.input,
-            output: false,
-        },
-        FileArg {
-            flag: "--out",
-            path: &args.out,
-            output: true,
-        },
+        FileArg::input("--model", &args.model),
+        FileArg::input("--input", &args.input),
+        FileArg::output("--out", &args.out),
     ];
     if let Some(p) = &args.events {
-        files.push(FileArg {
-            flag: "--events",
-            path: p,
-            output: true,
-        });
+        files.push(FileArg::output("--events", p));
     }
     if let Some(p) = &args.state {
-        files.push(FileArg {
-            flag: "--state",
-            path: p,
-            output: true,
-        });
+        files.push(FileArg::output("--state", p));
     }
     check_distinct(&files).map_err(anyhow::Error::msg)?;
     let model = file::load(&args.model).context("cannot use the model")?;

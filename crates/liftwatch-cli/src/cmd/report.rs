@@ -34,21 +34,9 @@ pub struct Args {
 /// Runs `report` and prints the path of `index.html`.
 pub fn run(args: Args) -> anyhow::Result<()> {
     liftwatch::output::check_distinct(&[
-        FileArg {
-            flag: "--model",
-            path: &args.model,
-            output: false,
-        },
-        FileArg {
-            flag: "--input",
-            path: &args.input,
-            output: false,
-        },
-        FileArg {
-            flag: "--out",
-            path: &args.out,
-            output: true,
-        },
+        FileArg::input("--model", &args.model),
+        FileArg::input("--input", &args.input),
+        FileArg::output("--out", &args.out),
     ])
     .map_err(anyhow::Error::msg)?;
     let model = file::load(&args.model).context("cannot use the model")?;

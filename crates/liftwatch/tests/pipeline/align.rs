@@ -2,30 +2,13 @@
 //! must align to exactly the series of the clean log, with every good row used and every
 //! bad row counted.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use liftwatch::align::{read_series, write_aligned_file, AlignConfig};
 use liftwatch::rng::Rng;
 use liftwatch::Sample;
 
-/// A fresh directory for one test, removed at the end.
-struct Dir(PathBuf);
-
-impl Dir {
-    fn new(name: &str) -> Dir {
-        let dir =
-            std::env::temp_dir().join(format!("liftwatch-pipeline-{name}-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
-        std::fs::create_dir_all(&dir).expect("temp dir is writable");
-        Dir(dir)
-    }
-}
-
-impl Drop for Dir {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
-}
+use crate::Dir;
 
 /// One raw row: time, signal, value (already formatted, so duplicates are byte-equal).
 type Row = (f64, &'static str, String);

@@ -21,24 +21,7 @@ use liftwatch::monitor::{self, Method, Monitor, MonitorRow, MonitorState, RowWri
 use liftwatch::sim::{simulate, RawCsvWriter, SensorFault, SimConfig};
 use liftwatch::{Elevator, Sample};
 
-/// A scratch directory removed at the end.
-struct Dir(PathBuf);
-
-impl Dir {
-    fn new(name: &str) -> Dir {
-        let dir =
-            std::env::temp_dir().join(format!("liftwatch-tester-{name}-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
-        std::fs::create_dir_all(&dir).expect("temp dir is writable");
-        Dir(dir)
-    }
-}
-
-impl Drop for Dir {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
-}
+use crate::Dir;
 
 /// One series and the model to watch it with.
 struct MonitorTester {

@@ -19,9 +19,9 @@ use liftwatch::ingest::csv::RowReader;
 use liftwatch::ingest::{IngestReport, Layout};
 use liftwatch::{Error, Result, Sample};
 
-/// Samples one input may send to the sink before the sink stops alignment with an error.
-/// The product accepts up to `align::MAX_SAMPLES` (3.2e8) grid points per input, which a
-/// two-line file can ask for; holding them all would measure memory, not find bugs.
+/// Samples one input may send to the sink before the sink stops alignment with an error:
+/// a few readings may still span a week of grid points (`align::FREE_SPAN_S`); holding them
+/// all would measure memory, not find bugs.
 const SINK_CAP: usize = 1 << 12;
 
 fuzz_target!(|data: &[u8]| {
@@ -30,7 +30,7 @@ fuzz_target!(|data: &[u8]| {
         let mut report = IngestReport::new(rows.layout());
         let done = rows.for_each_reading(&mut report, |t, _, _, _| {
             assert!(t.is_finite());
-            Ok(ControlFlow::Continue(()))
+            Ok::<_, Error>(ControlFlow::Continue(()))
         });
         if done.is_ok() && report.layout == Layout::Raw {
             let counted =
@@ -43,7 +43,7 @@ fuzz_target!(|data: &[u8]| {
         let mut report = IngestReport::new(rows.layout());
         let _ = rows.for_each_row(&mut report, |s, _| {
             assert!(s.time.is_finite());
-            Ok(ControlFlow::Continue(()))
+            Ok::<_, Error>(ControlFlow::Continue(()))
         });
     }
     let samples = RefCell::new(Vec::<Sample>::new());

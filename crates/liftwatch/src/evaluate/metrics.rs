@@ -11,12 +11,13 @@
 use serde::Serialize;
 
 use super::charts::{Chart, ChartCalibration};
-use super::suite::{CaseResult, CaseSink};
-use super::trips::TripSummary;
+use super::trips::{TripGrouper, TripSummary};
 use super::{DAY_S, PERSISTENT_TRIPS, YEAR_DAYS};
-use crate::alarm::Level;
+use crate::alarm::{Event, Level};
+use crate::error::Result;
 use crate::mode::FaultMode;
-use crate::sim::scenario::healthy_or_mode;
+use crate::monitor::{Monitor, MonitorRow};
+use crate::sim::{self, SimSink, TruthRow};
 
 /// One method's result on one case.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -188,121 +189,83 @@ impl Metrics<'_> {
     }
 }
 
-/// Aggregate of one method over the cases of one true mode.
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct Aggregate {
-    /// The method.
-    pub method: &'static str,
-    /// The true mode; None for the healthy runs (written `healthy`).
-    #[serde(with = "healthy_or_mode")]
-    pub truth: Option<FaultMode>,
-    /// Cases.
-    pub cases: usize,
-    /// Cases detected after the onset.
-    pub detected: usize,
-    /// Cases missed.
-    pub missed: usize,
-    /// Mean detection delay over detected cases (days).
-    pub mean_delay_days: Option<f64>,
-    /// Worst detection delay over detected cases (days).
-    pub worst_delay_days: Option<f64>,
-    /// Mean severity at detection.
-    pub mean_severity_at_detection: Option<f64>,
-    /// Detected cases whose named mode is right (None for methods that name none).
-    pub mode_correct: Option<usize>,
-    /// Sensor cases only: detected cases not blamed on a machine mode.
-    pub not_machine: Option<usize>,
-    /// False signals summed over the cases' exposure.
-    pub false_signals: usize,
-    /// Exposure (years).
-    pub exposure_years: f64,
-    /// False signals per elevator-year over that exposure.
-    pub false_per_year: f64,
-    /// Threshold method: mean flicker count.
-    pub mean_flicker: Option<f64>,
-    /// Threshold method: mean delay until the alarm is persistent, over the cases where it
-    /// became persistent (days).
-    pub mean_persistent_days: Option<f64>,
-    /// Threshold method: cases where the alarm never became persistent.
-    pub never_persistent: Option<usize>,
+/// A sink that monitors as the simulator produces, keeping only what the metrics need.
+pub(super) struct CaseSink {
+    pub(super) pinn: Monitor,
+    pub(super) thr: Monitor,
+    pub(super) seg_pinn: TripGrouper,
+    pub(super) seg_thr: TripGrouper,
+    /// Trips of the liftwatch monitor's rows, in order.
+    pub(super) trips: Vec<TripSummary>,
+    /// Trips of the threshold monitor's rows, in order.
+    pub(super) thr_trips: Vec<TripSummary>,
+    /// Events of the liftwatch monitor.
+    pub(super) events: Vec<Event>,
+    /// Times the threshold method's alarm switched on.
+    pub(super) thr_activations: Vec<f64>,
+    pub(super) thr_prev: Level,
+    /// True severity σ per second from the start (f32 keeps a month in a few MB).
+    pub(super) severity: Vec<f32>,
+    pub(super) start: f64,
 }
 
-/// Aggregates per method and true mode (healthy rows carry the false-advisory rate of the
-/// healthy runs; every row counts false signals over its cases' pre-onset spans).
-pub fn aggregate(results: &[CaseResult]) -> Vec<Aggregate> {
-    let mut out = Vec::new();
-    for (mi, method) in ["liftwatch", "threshold", "cusum", "ewma"]
-        .into_iter()
-        .enumerate()
-    {
-        for truth in [
-            None,
-            Some(FaultMode::Motor),
-            Some(FaultMode::Friction),
-            Some(FaultMode::Brake),
-            Some(FaultMode::Sensor),
-        ] {
-            let machine = truth.is_some_and(FaultMode::is_machine);
-            let rs: Vec<&MethodResult> = results
-                .iter()
-                .filter(|c| c.case.truth == truth)
-                .filter_map(|c| c.methods.get(mi))
-                .collect();
-            if rs.is_empty() {
-                continue;
-            }
-            let delays: Vec<f64> = rs.iter().filter_map(|r| r.delay_days).collect();
-            let sev: Vec<f64> = rs.iter().filter_map(|r| r.severity_at_detection).collect();
-            let mean = |v: &[f64]| (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64);
-            let names_mode = matches!(method, "liftwatch" | "threshold") && truth.is_some();
-            let false_signals: usize = rs.iter().map(|r| r.false_signals).sum();
-            let exposure_years = rs.iter().map(|r| r.exposure_days).sum::<f64>() / YEAR_DAYS;
-            let flick: Vec<f64> = rs
-                .iter()
-                .filter_map(|r| r.flicker)
-                .map(|f| f as f64)
-                .collect();
-            out.push(Aggregate {
-                method,
-                truth,
-                cases: rs.len(),
-                detected: delays.len(),
-                missed: if truth.is_some() {
-                    rs.len() - delays.len()
-                } else {
-                    0
-                },
-                mean_delay_days: mean(&delays),
-                worst_delay_days: delays.iter().copied().reduce(f64::max),
-                mean_severity_at_detection: mean(&sev),
-                mode_correct: names_mode
-                    .then(|| rs.iter().filter(|r| r.mode_correct == Some(true)).count()),
-                not_machine: (names_mode && truth == Some(FaultMode::Sensor)).then(|| {
-                    rs.iter()
-                        .filter(|r| matches!(r.mode, Some(FaultMode::Sensor | FaultMode::Unknown)))
-                        .count()
-                }),
-                false_signals,
-                exposure_years,
-                false_per_year: if exposure_years > 0.0 {
-                    false_signals as f64 / exposure_years
-                } else {
-                    0.0
-                },
-                mean_flicker: if machine { mean(&flick) } else { None },
-                mean_persistent_days: if method == "threshold" && machine {
-                    let p: Vec<f64> = rs.iter().filter_map(|r| r.persistent_delay_days).collect();
-                    mean(&p)
-                } else {
-                    None
-                },
-                never_persistent: (method == "threshold" && machine).then(|| {
-                    rs.iter()
-                        .filter(|r| r.persistent_delay_days.is_none())
-                        .count()
-                }),
-            });
+impl CaseSink {
+    fn pinn_row(&mut self, r: &MonitorRow) {
+        if let Some(e) = r.event {
+            self.events.push(e);
         }
+        self.trips.extend(self.seg_pinn.push(r));
     }
-    out
+
+    fn thr_row(&mut self, r: &MonitorRow) {
+        if r.level == Level::Alarm && self.thr_prev != Level::Alarm {
+            self.thr_activations.push(r.time);
+        }
+        self.thr_prev = r.level;
+        self.thr_trips.extend(self.seg_thr.push(r));
+    }
+
+    pub(super) fn finish(&mut self) {
+        for r in self.pinn.finish() {
+            self.pinn_row(&r);
+        }
+        for r in self.thr.finish() {
+            self.thr_row(&r);
+        }
+        self.trips.extend(self.seg_pinn.close());
+        self.thr_trips.extend(self.seg_thr.close());
+    }
+
+    pub(super) fn severity_at(&self, t: f64) -> f64 {
+        let i = (t - self.start).round();
+        if i < 0.0 {
+            return 0.0;
+        }
+        self.severity
+            .get(i as usize)
+            .or(self.severity.last())
+            .map_or(f64::NAN, |&s| f64::from(s))
+    }
+}
+
+impl SimSink for CaseSink {
+    fn raw(&mut self, _row: sim::RawRow) -> Result<()> {
+        Ok(())
+    }
+
+    fn truth(&mut self, row: &TruthRow) -> Result<()> {
+        let i = (row.sample.time - self.start).round().max(0.0) as usize;
+        if self.severity.len() <= i {
+            let last = self.severity.last().copied().unwrap_or(0.0);
+            self.severity.resize(i + 1, last);
+        }
+        self.severity[i] = row.severity as f32;
+        if let Some(r) = self.pinn.push(&row.sample) {
+            self.pinn_row(&r);
+        }
+        if let Some(r) = self.thr.push(&row.sample) {
+            self.thr_row(&r);
+        }
+        Ok(())
+    }
 }

@@ -53,6 +53,7 @@
 //! means), [`suite`] (fleet, cases, training, the monitored runs), [`metrics`] (per method
 //! and case, and their aggregates), [`table`] (the text summary); this module runs it all.
 
+pub mod aggregate;
 pub mod charts;
 pub mod metrics;
 pub mod suite;
@@ -65,11 +66,12 @@ use std::time::Instant;
 
 use serde::Serialize;
 
+pub use aggregate::{aggregate, Aggregate};
 pub use charts::{
     block_bootstrap, calibrate_limit, cusum_arl, cusum_h_for_arl, ChartCalibration, ChartKind,
     Cusum, Ewma, BLOCK_TRIPS, CALIBRATION_YEARS, CUSUM_K, EWMA_LAMBDA, TARGET_FALSE_PER_YEAR,
 };
-pub use metrics::{aggregate, Aggregate, MethodResult};
+pub use metrics::MethodResult;
 pub use suite::{
     cases, fleet, run_case, train, Case, CaseResult, ElevatorReport, FleetElevator, SuiteConfig,
     Trained,

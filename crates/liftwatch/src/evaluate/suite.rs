@@ -12,19 +12,19 @@ use std::time::Instant;
 use serde::Serialize;
 
 use super::charts::{ChartCalibration, Cusum, Ewma, CUSUM_K, EWMA_LAMBDA};
-use super::metrics::{MethodResult, Metrics};
-use super::trips::{healthy_trip_means, TripGrouper, TripSummary};
+use super::metrics::{CaseSink, MethodResult, Metrics};
+use super::trips::{healthy_trip_means, TripGrouper};
 use super::DAY_S;
-use crate::alarm::{Event, Level};
+use crate::alarm::Level;
 use crate::elevator::Elevator;
 use crate::error::{Error, Result};
 use crate::fit::{fit, FittedModel};
 use crate::mode::FaultMode;
 use crate::model::TrainConfig;
-use crate::monitor::{Method, Monitor, MonitorRow};
+use crate::monitor::{Method, Monitor};
 use crate::rng::Rng;
 use crate::sim::scenario::healthy_or_mode;
-use crate::sim::{self, Ramp, Scenario, SensorFault, SimConfig, SimElevator, SimSink, TruthRow};
+use crate::sim::{self, Ramp, Scenario, SensorFault, SimConfig, SimElevator};
 
 /// One elevator of the suite.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -276,87 +276,6 @@ pub struct CaseResult {
     pub methods: Vec<MethodResult>,
     /// Wall time of the case (s).
     pub seconds: f64,
-}
-
-/// A sink that monitors as the simulator produces, keeping only what the metrics need.
-pub(super) struct CaseSink {
-    pinn: Monitor,
-    thr: Monitor,
-    seg_pinn: TripGrouper,
-    seg_thr: TripGrouper,
-    /// Trips of the liftwatch monitor's rows, in order.
-    pub trips: Vec<TripSummary>,
-    /// Trips of the threshold monitor's rows, in order.
-    pub thr_trips: Vec<TripSummary>,
-    /// Events of the liftwatch monitor.
-    pub events: Vec<Event>,
-    /// Times the threshold method's alarm switched on.
-    pub thr_activations: Vec<f64>,
-    thr_prev: Level,
-    /// True severity σ per second from the start (f32 keeps a month in a few MB).
-    severity: Vec<f32>,
-    start: f64,
-}
-
-impl CaseSink {
-    fn pinn_row(&mut self, r: &MonitorRow) {
-        if let Some(e) = r.event {
-            self.events.push(e);
-        }
-        self.trips.extend(self.seg_pinn.push(r));
-    }
-
-    fn thr_row(&mut self, r: &MonitorRow) {
-        if r.level == Level::Alarm && self.thr_prev != Level::Alarm {
-            self.thr_activations.push(r.time);
-        }
-        self.thr_prev = r.level;
-        self.thr_trips.extend(self.seg_thr.push(r));
-    }
-
-    fn finish(&mut self) {
-        for r in self.pinn.finish() {
-            self.pinn_row(&r);
-        }
-        for r in self.thr.finish() {
-            self.thr_row(&r);
-        }
-        self.trips.extend(self.seg_pinn.close());
-        self.thr_trips.extend(self.seg_thr.close());
-    }
-
-    pub(super) fn severity_at(&self, t: f64) -> f64 {
-        let i = (t - self.start).round();
-        if i < 0.0 {
-            return 0.0;
-        }
-        self.severity
-            .get(i as usize)
-            .or(self.severity.last())
-            .map_or(f64::NAN, |&s| f64::from(s))
-    }
-}
-
-impl SimSink for CaseSink {
-    fn raw(&mut self, _row: sim::RawRow) -> Result<()> {
-        Ok(())
-    }
-
-    fn truth(&mut self, row: &TruthRow) -> Result<()> {
-        let i = (row.sample.time - self.start).round().max(0.0) as usize;
-        if self.severity.len() <= i {
-            let last = self.severity.last().copied().unwrap_or(0.0);
-            self.severity.resize(i + 1, last);
-        }
-        self.severity[i] = row.severity as f32;
-        if let Some(r) = self.pinn.push(&row.sample) {
-            self.pinn_row(&r);
-        }
-        if let Some(r) = self.thr.push(&row.sample) {
-            self.thr_row(&r);
-        }
-        Ok(())
-    }
 }
 
 /// Simulates and monitors one case with its elevator's trained reference.

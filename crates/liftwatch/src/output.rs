@@ -9,7 +9,8 @@
 //!
 //! A failed or abandoned write removes its temporary file and leaves the target untouched, so a
 //! reader sees the old content or the new, never a torn one; after [`AtomicFile::commit`]
-//! returns, the new content survives a power cut.
+//! returns, the new content survives a power cut. A process killed mid-write cannot clean up:
+//! the next write of the same target removes the temporary files of writers no longer running.
 
 use std::fs::File;
 use std::io::{self, BufWriter, Write};
@@ -51,6 +52,7 @@ impl AtomicFile {
                 out: BufWriter::new(file),
             });
         }
+        remove_stale_temps(&target);
         let temp = temp_path(&target);
         let file = File::create(&temp).map_err(|e| Error::io(&target, e))?;
         Ok(AtomicFile {
@@ -166,6 +168,7 @@ impl AtomicDir {
                 io::Error::other("exists and is not a directory"),
             ));
         }
+        remove_stale_temps(&target);
         let temp = PathBuf::from(format!("{}dir", temp_path(&target).display()));
         std::fs::create_dir(&temp).map_err(|e| Error::io(&target, e))?;
         Ok(AtomicDir {
@@ -308,6 +311,46 @@ fn temp_path(target: &Path) -> PathBuf {
     parent(target).join(format!(".{name}.{}.{n}.tmp", std::process::id()))
 }
 
+/// Removes what killed writers of `target` left beside it: `.name.<pid>.<n>.tmp` files and
+/// `.tmpdir` directories whose process no longer runs. Only where `/proc` tells which processes
+/// run (Linux); elsewhere they stay. Best effort: a leftover costs space, not correctness.
+fn remove_stale_temps(target: &Path) {
+    let Some(name) = target.file_name().map(|n| n.to_string_lossy().into_owned()) else {
+        return;
+    };
+    if !Path::new("/proc/self").exists() {
+        return;
+    }
+    let Ok(entries) = std::fs::read_dir(parent(target)) else {
+        return;
+    };
+    let prefix = format!(".{name}.");
+    for entry in entries.flatten() {
+        let file = entry.file_name().to_string_lossy().into_owned();
+        let Some(rest) = file.strip_prefix(&prefix) else {
+            continue;
+        };
+        let parts: Vec<&str> = rest.split('.').collect();
+        let [pid, n, kind] = parts[..] else {
+            continue;
+        };
+        let Ok(pid) = pid.parse::<u32>() else {
+            continue;
+        };
+        if n.parse::<u64>().is_err()
+            || pid == std::process::id()
+            || Path::new(&format!("/proc/{pid}")).exists()
+        {
+            continue;
+        }
+        let _ = match kind {
+            "tmp" => std::fs::remove_file(entry.path()),
+            "tmpdir" => std::fs::remove_dir_all(entry.path()),
+            _ => continue,
+        };
+    }
+}
+
 fn parent(path: &Path) -> &Path {
     path.parent()
         .filter(|p| !p.as_os_str().is_empty())
@@ -437,6 +480,27 @@ mod tests {
             "keep"
         );
         assert_eq!(entries(&dir), ["report"]);
+    }
+
+    #[test]
+    fn temporary_files_of_dead_writers_are_removed_by_the_next_write() {
+        let dir = scratch("stale");
+        let path = dir.join("out.csv");
+        // No process has the largest pid; this one is alive; `.other` belongs to another target.
+        let dead = format!(".out.csv.{}.0.tmp", u32::MAX);
+        let alive = format!(".out.csv.{}.7.tmp", std::process::id());
+        for name in [&dead, &alive, &".other.csv.1.0.tmp".to_string()] {
+            std::fs::write(dir.join(name), "half").unwrap();
+        }
+        std::fs::create_dir(dir.join(format!(".out.csv.{}.1.tmpdir", u32::MAX))).unwrap();
+        write_atomic(&path, b"new").unwrap();
+        let mut want = vec![
+            alive,
+            ".other.csv.1.0.tmp".to_string(),
+            "out.csv".to_string(),
+        ];
+        want.sort();
+        assert_eq!(entries(&dir), want);
     }
 
     #[test]

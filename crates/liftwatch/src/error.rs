@@ -132,9 +132,25 @@ pub fn check_range(field: &str, v: f64, lo: f64, hi: f64) -> std::result::Result
         Ok(())
     } else {
         Err(format!(
-            "`{field}` = {} is out of range, expected {lo} to {hi}",
-            clip(&v.to_string())
+            "`{field}` = {} is out of range, expected {} to {}",
+            number(v),
+            number(lo),
+            number(hi)
         ))
+    }
+}
+
+/// Longest plain rendering of a number in a message; a longer one (`1e308` has 309 digits)
+/// is written in exponent form, so the range after it still fits in the line.
+const MAX_PLAIN_NUMBER_CHARS: usize = 20;
+
+/// `v` as `{}` writes it when that is short, else as `{:e}`.
+fn number(v: f64) -> String {
+    let plain = v.to_string();
+    if plain.len() <= MAX_PLAIN_NUMBER_CHARS {
+        plain
+    } else {
+        format!("{v:e}")
     }
 }
 
@@ -162,6 +178,12 @@ mod tests {
         for v in [f64::NAN, f64::INFINITY, -1.0, 1e308] {
             let msg = check_range("kd", v, 0.0, 1.0).unwrap_err();
             assert!(msg.starts_with("`kd` ="), "{msg}");
+            assert!(msg.ends_with("expected 0 to 1"), "{msg}");
         }
+        let tiny = check_range("s", 1e-308, 1e-9, 1.0).unwrap_err();
+        assert_eq!(
+            tiny,
+            "`s` = 1e-308 is out of range, expected 0.000000001 to 1"
+        );
     }
 }

@@ -180,6 +180,9 @@ fn parse(text: &str) -> std::result::Result<FittedModel, ParseError> {
             u32::try_from(version).unwrap_or(u32::MAX),
         ));
     }
+    // Before the typed parse, whose complaint would quote a long string instead of naming it.
+    crate::limits::check_strings(&value, crate::limits::MAX_STRING_CHARS)
+        .map_err(ParseError::Bad)?;
     let model: FittedModel =
         serde_json::from_value(value).map_err(|e| ParseError::Bad(e.to_string()))?;
     check(&model).map_err(ParseError::Bad)?;

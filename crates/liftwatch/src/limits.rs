@@ -6,6 +6,7 @@
 //! monitor state     ≤ 1 MiB    a state is ~2 KiB
 //! elevator.toml     ≤ 64 KiB   a description is a few lines
 //! a telemetry line  ≤ 1 MiB    a row is under 200 bytes (an endless line, /dev/zero, is refused)
+//! a model's string  ≤ 1000 chars   the longest is a parameter's name, ~30 characters
 //! ```
 //! The aligner bounds its output by its input (see [`crate::align::MAX_ROWS_PER_READING`]).
 
@@ -68,6 +69,53 @@ impl<R: Read> Read for LineBounded<R> {
         self.run = tail;
         Ok(n)
     }
+}
+
+/// Longest string (value or key) a model file may hold: its strings are names, units and
+/// choices of a few dozen characters; a longer one is a corrupted or hostile file, and would
+/// otherwise be quoted into messages and reports.
+pub const MAX_STRING_CHARS: usize = 1000;
+
+/// The first string in `value` (a value or an object key) longer than `max_chars`, as a
+/// one-line complaint naming where it is, e.g. `` `fit.parameters[0].name` ``.
+///
+/// # Errors
+/// The complaint.
+pub fn check_strings(
+    value: &serde_json::Value,
+    max_chars: usize,
+) -> std::result::Result<(), String> {
+    fn walk(v: &serde_json::Value, at: &str, max: usize) -> std::result::Result<(), String> {
+        let too_long =
+            |what: &str, n: usize| format!("{what} of {n} characters, expected at most {max}");
+        match v {
+            serde_json::Value::String(s) if s.chars().count() > max => {
+                Err(too_long(&format!("`{at}` is a string"), s.chars().count()))
+            }
+            serde_json::Value::Array(items) => items
+                .iter()
+                .enumerate()
+                .try_for_each(|(i, item)| walk(item, &format!("{at}[{i}]"), max)),
+            serde_json::Value::Object(fields) => fields.iter().try_for_each(|(key, item)| {
+                if key.chars().count() > max {
+                    let whose = if at.is_empty() {
+                        "the document".to_string()
+                    } else {
+                        format!("`{at}`")
+                    };
+                    return Err(too_long(&format!("{whose} has a key"), key.chars().count()));
+                }
+                let at = if at.is_empty() {
+                    key.clone()
+                } else {
+                    format!("{at}.{key}")
+                };
+                walk(item, &at, max)
+            }),
+            _ => Ok(()),
+        }
+    }
+    walk(value, "", max_chars)
 }
 
 /// Reads the whole of a small document, refusing one longer than `max_bytes` before reading
@@ -134,6 +182,13 @@ mod tests {
         std::fs::write(&f, "{}").unwrap();
         assert_eq!(read_bounded_text(&f, 2, "model").unwrap(), "{}");
         assert!(read_bounded_text(&f, 1, "model").is_err());
+        let doc = serde_json::json!({"fit": {"parameters": [{"name": "x".repeat(11)}]}});
+        assert!(check_strings(&doc, 11).is_ok());
+        let err = check_strings(&doc, 10).unwrap_err();
+        assert_eq!(
+            err,
+            "`fit.parameters[0].name` is a string of 11 characters, expected at most 10"
+        );
         let _ = std::fs::remove_dir_all(&dir);
     }
 }

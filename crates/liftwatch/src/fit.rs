@@ -100,6 +100,12 @@ pub fn fit(
         scales: trained.scales,
     };
     let baseline = BaselineLimits::calibrate(&hybrid, &features.rows, BASELINE_MARGIN)?;
+    if baseline.measured_percentile < 0.999 {
+        summary.warnings.push(format!(
+            "the threshold baseline's 99.9th percentiles are extrapolated from the {:.1}th: the training has too few moving samples to measure them",
+            100.0 * baseline.measured_percentile
+        ));
+    }
     let healthy_trips = trip_evidence(&hybrid, &features.rows);
     let calibrated = calibrate(&healthy_trips, &CalibrationSettings::default())?;
     let model = FittedModel {

@@ -1,14 +1,20 @@
 //! Stage 7: levels, events and fault-mode attribution (paper, Sec. 4.3 and 5.3; DATA.md §4).
 //!
 //! ```text
-//! normal   → advisory   when R ≥ advisory          (schedule maintenance / inspect)
+//! q = max(R/advisory, G/h)                           G/h: the sequential decision's ratio
+//! normal   → advisory   when q ≥ 1                 (schedule maintenance / inspect)
 //! advisory → alarm      when R ≥ alarm             (intervention advised)
 //! alarm    → advisory   when R < ρ·alarm           ρ = release ratio, e.g. 0.5
-//! advisory → normal     when R < ρ·advisory
+//! advisory → normal     when q < ρ
 //! sensor:  advisory while the data, not the machine, look wrong
-//! mode  = argmax_m R_m / A_m  when it is ≥ 0.5 and exceeds the runner-up by the dominance
+//! mode  = the sequential decision's mode while G/h ≥ ρ and it names one, else
+//!         argmax_m R_m / A_m  when it is ≥ 0.5 and exceeds the runner-up by the dominance
 //!         factor, else unknown
 //! ```
+//!
+//! The advisory is decided by whichever detects first: the sequential test
+//! ([`crate::risk::sequential`]), fastest for a change of a given size, or the accumulated
+//! risk R, the paper's indicator. Alarm stays with R: it means a large, lasting deviation.
 //!
 //! The hysteresis band keeps a level from flickering while R hovers at a threshold: R decays
 //! by γ per trip, so leaving a level takes a sustained return to healthy behaviour.
@@ -96,6 +102,15 @@ pub struct Evidence {
     pub trips: u64,
     /// Trips refused as sensor-implausible so far.
     pub implausible_trips: u64,
+    /// The sequential decision's G/h (at least 1 when it detected the change).
+    pub cusum_ratio: f64,
+    /// Signature of its leading CUSUM.
+    pub cusum_signature: FaultMode,
+    /// Change size of its leading CUSUM, in standard errors of one trip.
+    pub cusum_size: f64,
+    /// Trips the leading CUSUM holds as changed (the drifts above are measured on them while
+    /// `cusum_ratio` is at least the release ratio).
+    pub cusum_trips: u32,
 }
 
 impl Evidence {
@@ -118,6 +133,10 @@ impl Evidence {
             brake_drag_se_n: f_c * a.drift_se[BRAKE],
             trips,
             implausible_trips,
+            cusum_ratio: a.decision.ratio,
+            cusum_signature: a.decision.lead_signature,
+            cusum_size: a.decision.lead_size,
+            cusum_trips: a.decision.window_trips,
         }
     }
 }
@@ -172,14 +191,16 @@ impl AlarmState {
         self.sensor
     }
 
-    /// Moves the machine level with hysteresis for combined risk `risk`.
-    pub fn update_machine(&mut self, risk: f64, cfg: &RiskConfig) {
+    /// Moves the machine level with hysteresis for combined risk `risk` and the sequential
+    /// decision's ratio G/h `seq_ratio` (0 without one).
+    pub fn update_machine(&mut self, risk: f64, seq_ratio: f64, cfg: &RiskConfig) {
         let rho = cfg.release_ratio;
+        let q = (risk / cfg.advisory).max(seq_ratio);
         self.machine = match self.machine {
             _ if risk >= cfg.alarm => Level::Alarm,
             Level::Alarm if risk >= rho * cfg.alarm => Level::Alarm,
-            _ if risk >= cfg.advisory => Level::Advisory,
-            Level::Alarm | Level::Advisory if risk >= rho * cfg.advisory => Level::Advisory,
+            _ if q >= 1.0 => Level::Advisory,
+            Level::Alarm | Level::Advisory if q >= rho => Level::Advisory,
             _ => Level::Normal,
         };
     }
@@ -209,33 +230,44 @@ pub fn attribute(risk_modes: &[f64; N_MODES], cfg: &RiskConfig) -> FaultMode {
     order[0]
 }
 
+/// The fault mode of an assessment: the sequential decision's, while it holds a change
+/// (G/h ≥ ρ) and names a mode; else the per-mode risks' ([`attribute`]).
+pub fn diagnose(a: &TripAssessment, cfg: &RiskConfig) -> FaultMode {
+    let d = &a.decision;
+    if d.ratio >= cfg.release_ratio && d.mode != FaultMode::Unknown {
+        d.mode
+    } else {
+        attribute(&a.risk_modes, cfg)
+    }
+}
+
 /// Moves the mode of the open episode for a sample whose level went from `before` to
 /// `state.level()`; returns true when the sample is an event: a change of level, or an episode
 /// opened as `unknown` that now gets its mode (at the same level).
 ///
-/// The trip-level lens reacts within tens of trips, the re-identification that names the mode
-/// within a few hundred, so an advisory may first say `unknown` and then name the mode.
+/// An advisory may first say `unknown` and then name the mode, when the evidence that raised
+/// it does not yet tell the signatures apart.
 pub fn update_episode(
     mode: &mut FaultMode,
     before: Level,
     state: &AlarmState,
-    risk_modes: &[f64; N_MODES],
+    a: &TripAssessment,
     cfg: &RiskConfig,
 ) -> bool {
     let level = state.level();
     let named = level == before
         && level > Level::Normal
         && *mode == FaultMode::Unknown
-        && attribute(risk_modes, cfg) != FaultMode::Unknown;
+        && diagnose(a, cfg) != FaultMode::Unknown;
     if named {
-        *mode = attribute(risk_modes, cfg);
+        *mode = diagnose(a, cfg);
         return true;
     }
     if level == before {
         return false;
     }
     if before == Level::Normal {
-        let m = attribute(risk_modes, cfg);
+        let m = diagnose(a, cfg);
         let sensor_only = state.machine_level() == Level::Normal;
         *mode = if sensor_only || (state.sensor() && m == FaultMode::Unknown) {
             FaultMode::Sensor
@@ -244,7 +276,7 @@ pub fn update_episode(
         };
     } else if level > before {
         // Escalation names the mode again: more evidence may have made it clear.
-        let m = attribute(risk_modes, cfg);
+        let m = diagnose(a, cfg);
         if m != FaultMode::Unknown {
             *mode = m;
         }
@@ -275,7 +307,7 @@ mod tests {
         let mut last = s.level();
         for k in 0..200 {
             let risk = 100.0 + if k % 2 == 0 { 5.0 } else { -5.0 };
-            s.update_machine(risk, &cfg);
+            s.update_machine(risk, 0.0, &cfg);
             if s.level() != last {
                 changes += 1;
                 last = s.level();
@@ -283,7 +315,7 @@ mod tests {
         }
         assert_eq!(changes, 1);
         assert_eq!(s.level(), Level::Advisory);
-        s.update_machine(49.0, &cfg);
+        s.update_machine(49.0, 0.0, &cfg);
         assert_eq!(s.level(), Level::Normal, "released below ρ·advisory");
     }
 
@@ -291,13 +323,13 @@ mod tests {
     fn alarm_is_left_for_advisory_then_normal() {
         let cfg = cfg();
         let mut s = AlarmState::default();
-        s.update_machine(500.0, &cfg);
+        s.update_machine(500.0, 0.0, &cfg);
         assert_eq!(s.level(), Level::Alarm);
-        s.update_machine(250.0, &cfg);
+        s.update_machine(250.0, 0.0, &cfg);
         assert_eq!(s.level(), Level::Alarm, "still above ρ·alarm");
-        s.update_machine(150.0, &cfg);
+        s.update_machine(150.0, 0.0, &cfg);
         assert_eq!(s.level(), Level::Advisory);
-        s.update_machine(10.0, &cfg);
+        s.update_machine(10.0, 0.0, &cfg);
         assert_eq!(s.level(), Level::Normal);
     }
 

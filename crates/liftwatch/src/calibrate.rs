@@ -8,7 +8,16 @@
 //! τ = μ_c + 3·σ_c of the healthy c = ln(1 + e_trip),  floored at ln 3
 //! advisory = max R over `years` of a moving-block bootstrap of the healthy trips (blocks of a day)
 //! alarm    = max(alarm_factor·advisory, steady R of a persistent z = alarm_z deviation)
+//! sequential: θ0, s², info pooled over the healthy trips (risk::sequential)
+//!   h_mj = max(max G_mj over the same bootstrap years, ln(9·trips per year / target))
 //! ```
+//!
+//! The floor of h is the CUSUM's own bound: with i.i.d. healthy increments a CUSUM at
+//! threshold h signals falsely at most once per e^h trips on average (Lorden), so nine of them
+//! at ln(9·N/target) give at most `target` false signals in a year of N trips. The bootstrap
+//! maximum raises h where the healthy trips are not independent (the thermal cycle, the
+//! traffic of a day), as far as the training shows it: a 3-day training shows three days of
+//! that wander, so its thresholds are only as honest as three days are typical.
 //!
 //! A second, independent bootstrap counts the false advisories per year with the final
 //! thresholds and the hysteresis of [`crate::alarm`]; the figure is kept in the model file
@@ -22,7 +31,8 @@ use serde::{Deserialize, Serialize};
 use crate::alarm::{AlarmState, Level};
 use crate::error::{Error, Result};
 use crate::mode::N_MODES;
-use crate::risk::{excess, RiskConfig, RiskTracker, Rls, TripEvidence};
+use crate::risk::sequential::N_SIZES;
+use crate::risk::{excess, RiskConfig, RiskTracker, Rls, SequentialConfig, TripEvidence};
 use crate::rng::{moving_blocks, BlockStart, Rng};
 use crate::sensor::SensorLimits;
 
@@ -154,8 +164,20 @@ pub fn calibrate(healthy: &[TripEvidence], settings: &CalibrationSettings) -> Re
     let span_s = (t1 - t0).max(3600.0);
     let trips_per_year = trips.len() as f64 / span_s * YEAR_S;
     let total = (settings.years.max(0.1) * trips_per_year).ceil() as u64;
+    cfg.sequential = SequentialConfig::reference(&trips, f64::INFINITY);
     let mut rng = Rng::new(settings.seed);
-    let (max_r, max_modes) = bootstrap_maxima(&cfg, &trips, settings.block_s, total, &mut rng);
+    let (max_r, max_modes, max_g) =
+        bootstrap_maxima(&cfg, &trips, settings.block_s, total, &mut rng);
+    if let Some(seq) = &mut cfg.sequential {
+        let statistics = (N_MODES * N_SIZES) as f64;
+        let target = settings.target_false_advisories_per_year.max(1e-3);
+        let floor = (statistics * trips_per_year / target).ln().max(1.0);
+        for m in 0..N_MODES {
+            for j in 0..N_SIZES {
+                seq.h[m][j] = max_g[m][j].max(floor);
+            }
+        }
+    }
     let floor = cfg.advisory_floor();
     cfg.advisory = max_r.max(floor);
     let tau_min = cfg.tau_modes.iter().fold(cfg.tau, |a, &b| a.min(b));
@@ -320,24 +342,29 @@ fn bootstrap(
     });
 }
 
-/// Highest combined and per-mode risks over a bootstrap run.
+/// Highest combined and per-mode risks, and highest G of every CUSUM, over a bootstrap run.
 fn bootstrap_maxima(
     cfg: &RiskConfig,
     trips: &[TripEvidence],
     block_s: f64,
     total: u64,
     rng: &mut Rng,
-) -> (f64, [f64; N_MODES]) {
+) -> (f64, [f64; N_MODES], [[f64; N_SIZES]; N_MODES]) {
     let mut tracker = RiskTracker::new(cfg);
     let (mut max_r, mut max_m) = (0.0f64, [0.0f64; N_MODES]);
+    let mut max_g = [[0.0f64; N_SIZES]; N_MODES];
     bootstrap(trips, block_s, total, rng, |t| {
         let a = tracker.push(cfg, t);
         max_r = max_r.max(a.risk);
+        let g = tracker.cusum_g();
         for m in 0..N_MODES {
             max_m[m] = max_m[m].max(a.risk_modes[m]);
+            for j in 0..N_SIZES {
+                max_g[m][j] = max_g[m][j].max(g[m][j]);
+            }
         }
     });
-    (max_r, max_m)
+    (max_r, max_m, max_g)
 }
 
 /// Advisory episodes (with the hysteresis of [`crate::alarm`]) over a bootstrap run.
@@ -354,7 +381,7 @@ fn bootstrap_episodes(
     bootstrap(trips, block_s, total, rng, |t| {
         let a = tracker.push(cfg, t);
         let before = alarm.machine_level();
-        alarm.update_machine(a.risk, cfg);
+        alarm.update_machine(a.risk, a.decision.ratio, cfg);
         if before == Level::Normal && alarm.machine_level() != Level::Normal {
             episodes += 1;
         }
@@ -414,6 +441,8 @@ mod tests {
             "healthy risk {max} reached the advisory {}",
             cfg.advisory
         );
+        let seq = a.iter().map(|a| a.decision.ratio).fold(0.0, f64::max);
+        assert!(seq < 1.0, "a healthy CUSUM crossed: G/h = {seq}");
         let report = &cal.report;
         assert!(
             report.validated_false_advisories_per_year <= report.target_false_advisories_per_year,
@@ -534,6 +563,73 @@ mod tests {
             "friction drift {}",
             last.drift[FRICTION]
         );
+    }
+
+    #[test]
+    fn a_step_is_decided_within_tens_of_trips_with_its_mode_and_size() {
+        // Kd +10 % from day 1 on: the sequential decision crosses within tens of trips, names
+        // the motor and measures the step on the trips it holds as changed, where the
+        // accumulated risk R alone takes hundreds.
+        let m = test_model();
+        let cfg = calibrated(&m).risk;
+        let onset = 86_400.0;
+        let trips = synthetic_trips(&m, 17, 6.0, 0.0, &|t, x| {
+            if t > onset {
+                0.10 * x[MOTOR]
+            } else {
+                0.0
+            }
+        });
+        let a = run(&cfg, &trips);
+        let after: Vec<(&TripAssessment, &TripEvidence)> = a
+            .iter()
+            .zip(&trips)
+            .filter(|(_, t)| t.start > onset)
+            .collect();
+        let k = after
+            .iter()
+            .position(|(a, _)| a.decision.ratio >= 1.0)
+            .expect("the step must be decided");
+        assert!(k < 60, "decided only {k} trips after the step");
+        let r = after.iter().position(|(a, _)| a.risk >= cfg.advisory);
+        assert!(
+            r.map_or(true, |r| r > k),
+            "R ({r:?}) before the decision ({k})"
+        );
+        let d = after[k].0.decision;
+        assert_eq!(d.mode, crate::mode::FaultMode::Motor, "{d:?}");
+        // Once the window holds enough trips, the Kd drift is the step's, within 2 SE.
+        let later = after[k + 100].0.decision;
+        assert!(
+            (later.drift[MOTOR] - 0.10).abs() < 2.0 * later.drift_se[MOTOR],
+            "Kd drift {} ± {}",
+            later.drift[MOTOR],
+            later.drift_se[MOTOR]
+        );
+        assert!(
+            a.iter()
+                .zip(&trips)
+                .filter(|(_, t)| t.start < onset)
+                .all(|(a, _)| a.decision.ratio < 1.0),
+            "crossed before the step"
+        );
+    }
+
+    #[test]
+    fn one_burst_of_odd_trips_is_not_a_change() {
+        // Five consecutive trips far off (20 σ), then healthy again: the clip and the sizes
+        // keep the decision below its threshold.
+        let m = test_model();
+        let cfg = calibrated(&m).risk;
+        let k = 20.0 * m.scales.sigma_u_v;
+        let burst = |t: f64| (86_400.0..86_400.0 + 1500.0).contains(&t);
+        let trips = synthetic_trips(&m, 21, 3.0, 0.0, &|t, _| if burst(t) { k } else { 0.0 });
+        assert!(trips.iter().filter(|t| burst(t.start)).count() >= 3);
+        let seq = run(&cfg, &trips)
+            .iter()
+            .map(|a| a.decision.ratio)
+            .fold(0.0, f64::max);
+        assert!(seq < 1.0, "a burst crossed: G/h = {seq}");
     }
 
     #[test]

@@ -18,7 +18,7 @@ use serde::{Deserialize, Serialize};
 use crate::error::{Error, Result};
 
 /// What the evidence points at, or what a simulated run really has (DATA.md §4).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum FaultMode {
     /// Drive degradation: Kd up, a load-proportional voltage rise.
@@ -30,6 +30,7 @@ pub enum FaultMode {
     /// The data, not the machine, look wrong.
     Sensor = 3,
     /// No mode clearly dominates.
+    #[default]
     Unknown = 4,
 }
 

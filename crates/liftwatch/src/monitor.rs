@@ -490,10 +490,10 @@ impl Monitor {
         let cfg = &self.model.risk;
         let st = &mut self.st;
         let a = st.risk.last;
-        st.alarm.update_machine(a.risk, cfg);
+        st.alarm.update_machine(a.risk, a.decision.ratio, cfg);
         let level = st.alarm.level();
         let mut event = None;
-        if update_episode(&mut st.episode_mode, before, &st.alarm, &a.risk_modes, cfg) {
+        if update_episode(&mut st.episode_mode, before, &st.alarm, &a, cfg) {
             let evidence =
                 Evidence::from_assessment(&a, self.friction.0, st.risk.trips, st.implausible_trips);
             event = Some(Event {

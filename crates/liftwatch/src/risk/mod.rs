@@ -67,9 +67,11 @@ use crate::mode::FaultMode;
 pub use crate::mode::N_MODES;
 
 mod evidence;
+pub mod sequential;
 mod tracker;
 
 pub use evidence::{friction_reference, signature, trip_evidence, TripAccumulator, TripEvidence};
+pub use sequential::{Decision, Sequential, SequentialConfig};
 pub(crate) use tracker::excess;
 pub use tracker::{Accumulator, RiskTracker, Rls, TripAssessment};
 
@@ -133,6 +135,10 @@ pub struct RiskConfig {
     pub release_ratio: f64,
     /// A mode is named only when its scaled risk is this many times the runner-up's.
     pub dominance: f64,
+    /// The sequential decision ([`sequential`]); absent in models fitted before it existed,
+    /// which then decide from R alone.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sequential: Option<SequentialConfig>,
 }
 
 impl Default for RiskConfig {
@@ -158,6 +164,7 @@ impl Default for RiskConfig {
             advisory_modes: [0.0; N_MODES],
             release_ratio: 0.5,
             dominance: 1.5,
+            sequential: None,
         };
         cfg.advisory = cfg.advisory_floor();
         cfg.alarm = 4.0 * cfg.advisory;
@@ -254,6 +261,12 @@ impl RiskConfig {
         }
         range("risk.prior_s2", self.prior_s2, 1e-300, 1e30)?;
         range("risk.dominance", self.dominance, 1.0, 1e3)?;
+        if let Some(seq) = &self.sequential {
+            seq.validate().map_err(|why| Error::InvalidConfig {
+                field: "risk.sequential",
+                why,
+            })?;
+        }
         range(
             "risk.min_trip_samples",
             f64::from(self.min_trip_samples),

@@ -13,6 +13,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::evidence::unpack;
+use super::sequential::{Decision, Sequential};
 use super::{RiskConfig, TripEvidence, N_MODES};
 use crate::exact;
 
@@ -174,6 +175,9 @@ pub struct TripAssessment {
     /// One-sided drift statistics z⁺ (motor, brake, friction).
     #[serde(with = "exact::array")]
     pub z: [f64; N_MODES],
+    /// The sequential decision ([`super::sequential`]); all zero without one.
+    #[serde(default)]
+    pub decision: Decision,
 }
 
 /// The risk state of one elevator: re-identification, accumulators and the last assessment.
@@ -184,6 +188,8 @@ pub struct RiskTracker {
     s2: f64,
     combined: Accumulator,
     modes: [Accumulator; N_MODES],
+    #[serde(default)]
+    seq: Sequential,
     /// Trips taken as machine evidence so far.
     pub trips: u64,
     /// The latest assessment.
@@ -198,6 +204,7 @@ impl RiskTracker {
             s2: cfg.prior_s2,
             combined: Accumulator::default(),
             modes: [Accumulator::default(); N_MODES],
+            seq: Sequential::default(),
             trips: 0,
             last: TripAssessment::default(),
         }
@@ -266,6 +273,21 @@ impl RiskTracker {
         self.trips += 1;
         self.last.risk = self.combined.r;
         self.last.risk_modes = [self.modes[0].r, self.modes[1].r, self.modes[2].r];
+        if let Some(seq) = &cfg.sequential {
+            let d = self.seq.push(seq, t);
+            // While a change is held, its drift is the one measured on the changed trips, not
+            // the long memory's lagged fraction of it.
+            if d.ratio >= cfg.release_ratio && d.drift.iter().all(|v| v.is_finite()) {
+                self.last.drift = d.drift;
+                self.last.drift_se = d.drift_se;
+            }
+            self.last.decision = d;
+        }
         self.last
+    }
+
+    /// G of every CUSUM now, per mode and size (for calibration).
+    pub fn cusum_g(&self) -> [[f64; super::sequential::N_SIZES]; N_MODES] {
+        self.seq.g()
     }
 }

@@ -1,0 +1,345 @@
+//! Stage 6, the decision: sequential change detection along the known fault signatures
+//! (CUSUM for a change of known direction, Basseville & Nikiforov, "Detection of Abrupt
+//! Changes", ch. 7-8), at several change sizes at once.
+//!
+//! ```text
+//! per usable trip k, per mode m (signature x_m, trip means as in the regression):
+//!   score_m = mean(x_m·r_U) − (mean(x·xᵀ)·θ0)_m      healthy mean 0: θ0 pooled over the fit
+//!   info_m  = mean(x_m²)
+//!   healthy var(score_m) = s²_m·info_m                s²_m = Σ score² / Σ info on the fit
+//! one CUSUM per mode m and size δ = ν_j·se_m         se_m = s_m/√(mean info_m): one trip's SE
+//!   u = clip(score_m/(s_m·√info_m), ±3),  ν = δ·√info_m/s_m
+//!   G ← max(0, G + ν·u − ν²/2)                     log-likelihood ratio of a drift δ along x_m
+//!   a CUSUM at 0 forgets its window; above 0 it sums the window's score (3) and x·xᵀ (6)
+//! crossing: G ≥ h_mj                                  h calibrated (crate::calibrate)
+//! ratio   = max over m, j of G_mj/h_mj                ≥ 1: the decision says "changed"
+//! mode    = argmax_m z_m on the crossing window,  z_m = S_m/(s_m·√W_mm), one signature alone,
+//!           named when z_best² − z_second² ≥ 2·ln(ISOLATION_ODDS), else unknown
+//! drift   = W⁻¹·S on that window (all three signatures jointly),
+//!           SE² = diag(W⁻¹)·max s² + wander²        wander: healthy sd between blocks of 50 trips
+//! ```
+//!
+//! Why CUSUM beside the accumulated risk R: R compresses each trip's evidence by ln(1 + z)
+//! and floors its threshold at 100 trips of excess, so a large step waits as long as a small
+//! ramp; and the re-identification behind the per-mode lenses forgets over 3000 trips, so a
+//! step shows in it only as k/3000 of its size after k trips. A CUSUM tuned to a size δ is the
+//! fastest detector of that size at a given false-alarm rate (Lorden's optimality): with
+//! sizes of one eighth and one half of one trip's standard error, a step of a few standard
+//! errors is flagged within about ten trips, and a slow ramp by the small size once its mean
+//! exceeds it. The drift is estimated on the trips the crossing CUSUM holds as changed, not
+//! on the long memory, so it is the size of the change, not a lagged fraction of it.
+//!
+//! Isolation is by the likelihood of each signature alone: a friction rise also moves the
+//! motor score (the signatures are not orthogonal), but less than it moves its own. (Isolating
+//! on the joint drifts instead named fewer modes at the first advisory on the evaluation:
+//! motor 14/15, friction 11/15, brake 5/15 against 14, 14 and 5, as the short windows of an
+//! early decision leave the joint estimate wide.)
+
+// Per-mode arrays read best with explicit indices.
+#![allow(clippy::needless_range_loop)]
+
+use serde::{Deserialize, Serialize};
+
+use super::evidence::unpack;
+use super::tracker::spd_inverse;
+use super::{TripEvidence, N_MODES};
+use crate::exact;
+use crate::mode::{FaultMode, MACHINE_MODES};
+
+/// Change sizes of the CUSUM bank, in standard errors of one trip's single-signature
+/// estimate. ν = 1/8 catches a slow ramp once its mean passes an eighth of a trip's noise
+/// (about 2·h·64 trips: days to weeks); ν = 1/2 a step within h/(ν·u − ν²/2) trips, about ten
+/// for a step beyond the clip. No larger size: with the clip, a CUSUM of size ν gains at
+/// most ν·3 − ν²/2 per trip, and at ν = 1/2 that is 1.375, so no fewer than about ten trips
+/// (h ≈ 14) ever make a decision. A size of 2 decided from four or five odd trips; on the
+/// evaluation all four of its false advisories came that way (windows of 4-7 trips).
+pub const SIZES: [f64; N_SIZES] = [0.125, 0.5];
+
+/// Number of change sizes in the bank.
+pub const N_SIZES: usize = 2;
+
+/// A trip's standardised score u = score/(s·√info) enters the CUSUMs clipped to ±3: one
+/// trip's evidence is bounded the way a Huber estimator bounds it, so a few odd trips (a
+/// re-levelling, a passenger jumping, a dropout at a trip's edge) cannot outweigh the many a
+/// real degradation gives. A change of up to 3 standard errors per trip passes unclipped.
+pub const CLIP: f64 = 3.0;
+
+/// A mode is named when its signature alone explains the window this many times more likely
+/// than the runner-up's: 20 to 1, a conventional "strong" likelihood ratio.
+pub const ISOLATION_ODDS: f64 = 20.0;
+
+/// Calibrated settings of the sequential decision, stored in the model file.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SequentialConfig {
+    /// θ0: signature coefficients pooled over the healthy trips (least squares on all of them).
+    pub theta0: [f64; N_MODES],
+    /// s²_m: healthy variance of a trip's score per unit information (V²).
+    pub s2: [f64; N_MODES],
+    /// Mean healthy information of a trip per mode (V²): se_m = √(s²_m/info_m).
+    pub info: [f64; N_MODES],
+    /// h: crossing thresholds per mode and size (log-likelihood ratio units).
+    pub h: [[f64; N_SIZES]; N_MODES],
+    /// Healthy wander of a coefficient between blocks of [`WANDER_BLOCK_TRIPS`] trips beyond
+    /// what their noise explains (the daily thermal swing of Kd shows here); it is added to
+    /// the standard error of every window drift, which no number of trips averages away.
+    pub wander: [f64; N_MODES],
+}
+
+/// Trips per block when the healthy wander is measured: a few busy hours, short against the
+/// daily thermal cycle, long enough for a block's noise to be small.
+pub const WANDER_BLOCK_TRIPS: usize = 50;
+
+impl SequentialConfig {
+    /// δ of mode `m`, size `j`, in coefficient units.
+    pub fn delta(&self, m: usize, j: usize) -> f64 {
+        SIZES[j] * (self.s2[m] / self.info[m]).sqrt()
+    }
+
+    /// Checks a hand-edited model: every number finite, variances and thresholds positive.
+    ///
+    /// # Errors
+    /// A message naming the first field out of range.
+    pub fn validate(&self) -> std::result::Result<(), String> {
+        let check = crate::error::check_range;
+        for m in 0..N_MODES {
+            check("risk.sequential.theta0", self.theta0[m], -1e3, 1e3)?;
+            check("risk.sequential.s2", self.s2[m], 1e-300, 1e30)?;
+            check("risk.sequential.info", self.info[m], 1e-300, 1e30)?;
+            for j in 0..N_SIZES {
+                check("risk.sequential.h", self.h[m][j], 1e-3, 1e9)?;
+            }
+            check("risk.sequential.wander", self.wander[m], 0.0, 1e3)?;
+        }
+        Ok(())
+    }
+
+    /// The healthy reference of `trips` (pooled θ0, s², mean information); thresholds are
+    /// left at `h` for the caller to calibrate. `None` when the signatures are not separable
+    /// on these trips.
+    pub fn reference(trips: &[TripEvidence], h: f64) -> Option<SequentialConfig> {
+        let mut a = [0.0; 6];
+        let mut b = [0.0; N_MODES];
+        for t in trips {
+            for k in 0..6 {
+                a[k] += t.xtx[k];
+            }
+            for m in 0..N_MODES {
+                b[m] += t.xtr[m];
+            }
+        }
+        let inv = spd_inverse(&a)?;
+        let mut theta0 = [0.0; N_MODES];
+        for m in 0..N_MODES {
+            theta0[m] = (0..N_MODES).map(|j| inv[m][j] * b[j]).sum();
+        }
+        let mut cfg = SequentialConfig {
+            theta0,
+            s2: [0.0; N_MODES],
+            info: [0.0; N_MODES],
+            h: [[h; N_SIZES]; N_MODES],
+            wander: [0.0; N_MODES],
+        };
+        let (mut ss, mut si) = ([0.0; N_MODES], [0.0; N_MODES]);
+        for t in trips {
+            let (score, info) = cfg.score(t);
+            for m in 0..N_MODES {
+                ss[m] += score[m] * score[m];
+                si[m] += info[m];
+            }
+        }
+        let n = trips.len().max(1) as f64;
+        for m in 0..N_MODES {
+            if !(si[m] > 0.0 && ss[m] > 0.0) {
+                return None;
+            }
+            cfg.s2[m] = ss[m] / si[m];
+            cfg.info[m] = si[m] / n;
+        }
+        cfg.wander = cfg.block_wander(trips);
+        Some(cfg)
+    }
+
+    /// sd of the single-signature coefficient between blocks of [`WANDER_BLOCK_TRIPS`]
+    /// trips, less their own noise: √max(0, mean (y_b − ȳ)² − mean s²/I_b), with
+    /// y_b = Σ score/Σ info of block b and I_b its information.
+    fn block_wander(&self, trips: &[TripEvidence]) -> [f64; N_MODES] {
+        let mut out = [0.0; N_MODES];
+        for m in 0..N_MODES {
+            let blocks: Vec<(f64, f64)> = trips
+                .chunks_exact(WANDER_BLOCK_TRIPS)
+                .map(|b| {
+                    let (s, i) = b.iter().fold((0.0, 0.0), |(s, i), t| {
+                        let (score, info) = self.score(t);
+                        (s + score[m], i + info[m])
+                    });
+                    (s / i, self.s2[m] / i)
+                })
+                .filter(|(y, v)| y.is_finite() && v.is_finite())
+                .collect();
+            if blocks.len() < 2 {
+                continue;
+            }
+            let n = blocks.len() as f64;
+            let mean = blocks.iter().map(|b| b.0).sum::<f64>() / n;
+            let spread = blocks.iter().map(|b| (b.0 - mean).powi(2)).sum::<f64>() / (n - 1.0);
+            let noise = blocks.iter().map(|b| b.1).sum::<f64>() / n;
+            out[m] = (spread - noise).max(0.0).sqrt();
+        }
+        out
+    }
+
+    /// Score and information of one trip per mode.
+    fn score(&self, t: &TripEvidence) -> ([f64; N_MODES], [f64; N_MODES]) {
+        let xtx = unpack(&t.xtx);
+        let mut score = [0.0; N_MODES];
+        let mut info = [0.0; N_MODES];
+        for m in 0..N_MODES {
+            let healthy: f64 = (0..N_MODES).map(|j| xtx[m][j] * self.theta0[j]).sum();
+            score[m] = t.xtr[m] - healthy;
+            info[m] = xtx[m][m];
+        }
+        (score, info)
+    }
+}
+
+/// One CUSUM with the sums of the window it holds as changed.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Cusum {
+    /// G: the log-likelihood ratio of the change against none, maximised over its start.
+    #[serde(with = "exact")]
+    pub g: f64,
+    /// Trips in the window (since G last left 0).
+    pub trips: u32,
+    /// Σ score over the window, per mode.
+    #[serde(with = "exact::array")]
+    pub s: [f64; N_MODES],
+    /// Σ x·xᵀ over the window (packed upper triangle).
+    #[serde(with = "exact::array")]
+    pub w: [f64; 6],
+}
+
+/// What the sequential decision concluded after one trip.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Decision {
+    /// max G/h over the bank: at least 1 when a change is detected.
+    #[serde(with = "exact")]
+    pub ratio: f64,
+    /// The mode the leading window's likelihoods point at.
+    pub mode: FaultMode,
+    /// Drift of the leading window (motor, brake, friction; relative units), NaN when the
+    /// window does not separate the signatures.
+    #[serde(with = "exact::array")]
+    pub drift: [f64; N_MODES],
+    /// Standard errors of those drifts.
+    #[serde(with = "exact::array")]
+    pub drift_se: [f64; N_MODES],
+    /// Trips in the leading window.
+    pub window_trips: u32,
+    /// Signature of the leading CUSUM (the one nearest its threshold).
+    pub lead_signature: FaultMode,
+    /// Its change size ν, in standard errors of one trip.
+    pub lead_size: f64,
+}
+
+/// The CUSUM bank of one elevator: one per mode and size.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Sequential {
+    /// The CUSUMs, per mode and size.
+    pub bank: [[Cusum; N_SIZES]; N_MODES],
+}
+
+impl Sequential {
+    /// Takes one usable trip and returns the decision.
+    pub fn push(&mut self, cfg: &SequentialConfig, t: &TripEvidence) -> Decision {
+        let (score, info) = cfg.score(t);
+        let mut lead = (0usize, 0usize, 0.0f64);
+        for m in 0..N_MODES {
+            // In standardised units: u = score/(s·√info), ν = δ·√info/s per this trip.
+            let root = (cfg.s2[m] * info[m]).sqrt();
+            let u = if root > 0.0 {
+                (score[m] / root).clamp(-CLIP, CLIP)
+            } else {
+                0.0
+            };
+            for j in 0..N_SIZES {
+                let nu = cfg.delta(m, j) * (info[m] / cfg.s2[m]).sqrt();
+                let c = &mut self.bank[m][j];
+                c.g += nu * u - 0.5 * nu * nu;
+                if c.g <= 0.0 {
+                    *c = Cusum::default();
+                    continue;
+                }
+                c.trips = c.trips.saturating_add(1);
+                for i in 0..N_MODES {
+                    c.s[i] += score[i];
+                }
+                for k in 0..6 {
+                    c.w[k] += t.xtx[k];
+                }
+                let r = c.g / cfg.h[m][j];
+                if r > lead.2 {
+                    lead = (m, j, r);
+                }
+            }
+        }
+        let c = &self.bank[lead.0][lead.1];
+        let (drift, drift_se) = window_drift(cfg, c);
+        Decision {
+            ratio: lead.2,
+            mode: if c.trips > 0 {
+                isolate(cfg, c)
+            } else {
+                FaultMode::Unknown
+            },
+            drift,
+            drift_se,
+            window_trips: c.trips,
+            lead_signature: MACHINE_MODES[lead.0],
+            lead_size: SIZES[lead.1],
+        }
+    }
+
+    /// G now, per mode and size.
+    pub fn g(&self) -> [[f64; N_SIZES]; N_MODES] {
+        self.bank.map(|row| row.map(|c| c.g))
+    }
+}
+
+/// The mode whose signature alone explains the window best, when it does so by the odds of
+/// [`ISOLATION_ODDS`]; only rises (positive scores) are degradations.
+fn isolate(cfg: &SequentialConfig, c: &Cusum) -> FaultMode {
+    let w = unpack(&c.w);
+    let mut z2 = [0.0; N_MODES];
+    for m in 0..N_MODES {
+        let s = c.s[m].max(0.0);
+        z2[m] = if w[m][m] > 0.0 {
+            s * s / (cfg.s2[m] * w[m][m])
+        } else {
+            0.0
+        };
+    }
+    let mut order = MACHINE_MODES;
+    order.sort_by(|a, b| z2[*b as usize].total_cmp(&z2[*a as usize]));
+    if z2[order[0] as usize] - z2[order[1] as usize] >= 2.0 * ISOLATION_ODDS.ln() {
+        order[0]
+    } else {
+        FaultMode::Unknown
+    }
+}
+
+/// Joint estimate of the three drifts on a window, with standard errors from the healthy
+/// per-mode noise (the largest of the three s², the conservative choice for a joint fit) and
+/// the healthy wander of each coefficient.
+fn window_drift(cfg: &SequentialConfig, c: &Cusum) -> ([f64; N_MODES], [f64; N_MODES]) {
+    let Some(inv) = spd_inverse(&c.w) else {
+        return ([f64::NAN; N_MODES], [f64::NAN; N_MODES]);
+    };
+    let s2 = cfg.s2.iter().fold(0.0f64, |a, &b| a.max(b));
+    let mut drift = [0.0; N_MODES];
+    let mut se = [0.0; N_MODES];
+    for m in 0..N_MODES {
+        drift[m] = (0..N_MODES).map(|j| inv[m][j] * c.s[j]).sum();
+        se[m] = (s2 * inv[m][m] + cfg.wander[m] * cfg.wander[m]).sqrt();
+    }
+    (drift, se)
+}

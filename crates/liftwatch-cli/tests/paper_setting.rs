@@ -2,29 +2,14 @@
 //! 80 trips and 950 moving samples): `fit` accepts it, says which limits it had to
 //! extrapolate, and `monitor` watches the following day with both methods.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 
 /// Seconds of training at the start of the simulated log: the paper's 3 hours.
 const TRAIN_S: f64 = 3.0 * 3600.0;
 
-/// A fresh directory, removed at the end.
-struct Dir(PathBuf);
-
-impl Dir {
-    fn new(name: &str) -> Dir {
-        let dir = std::env::temp_dir().join(format!("liftwatch-{name}-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
-        std::fs::create_dir_all(&dir).expect("temp dir is writable");
-        Dir(dir)
-    }
-}
-
-impl Drop for Dir {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
-}
+mod common;
+use common::Dir;
 
 /// Runs the binary to success and returns its stdout and stderr together.
 fn run(args: &[&str]) -> String {

@@ -32,34 +32,8 @@ const HANG_LIMIT: Duration = Duration::from_secs(60);
 /// Chunks the kill test's log is cut into (each run of `monitor` watches one).
 const N_CHUNKS: usize = 6;
 
-/// A fresh directory for one case, removed at the end.
-struct Dir(PathBuf);
-
-impl Dir {
-    fn new(name: &str) -> Dir {
-        let dir = Path::new(env!("CARGO_TARGET_TMPDIR"))
-            .join(format!("safety-{name}-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
-        std::fs::create_dir_all(&dir).expect("the target's tmp dir is writable");
-        Dir(dir)
-    }
-
-    fn path(&self, name: &str) -> PathBuf {
-        self.0.join(name)
-    }
-
-    fn file(&self, name: &str, bytes: &[u8]) -> PathBuf {
-        let path = self.0.join(name);
-        std::fs::write(&path, bytes).expect("case dir is writable");
-        path
-    }
-}
-
-impl Drop for Dir {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
-}
+mod common;
+use common::Dir;
 
 /// Every entry under `dir` with its content (a link's target, `None` for a FIFO or device),
 /// to prove a refused run changed nothing.

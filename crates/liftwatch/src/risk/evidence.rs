@@ -1,5 +1,7 @@
 //! Stage 6, per-trip evidence: the trip-mean residuals and each trip's share of the
-//! fault-signature regression (normal equations of r_U on the signatures, per sample 1/n).
+//! fault-signature regression (normal equations of r_U on the signatures, per sample 1/n),
+//! and the two helpers on their packed 3×3 matrices (`unpack`, `spd_inverse`) that the tracker
+//! and the sequential decision both use.
 //!
 //! ```text
 //! x_motor = φ(s)·Kd·s·F_pred    x_brake = φ(s)·Kd·F_c·1[s = −1 or decel]    x_fric = φ(s)·Kd·(F_c + c·|v|)
@@ -225,4 +227,49 @@ pub fn trip_evidence(model: &HybridModel, rows: &[FeatureRow]) -> Vec<TripEviden
 /// The symmetric 3×3 matrix of a packed upper triangle (00, 01, 02, 11, 12, 22).
 pub(super) fn unpack(p: &[f64; 6]) -> [[f64; 3]; 3] {
     [[p[0], p[1], p[2]], [p[1], p[3], p[4]], [p[2], p[4], p[5]]]
+}
+
+/// Inverse of a symmetric positive-definite 3×3 matrix by Cholesky; `None` when it is not.
+pub(super) fn spd_inverse(p: &[f64; 6]) -> Option<[[f64; 3]; 3]> {
+    let a = unpack(p);
+    let scale = (a[0][0] + a[1][1] + a[2][2]) / 3.0;
+    if !(scale.is_finite() && scale > 0.0) {
+        return None;
+    }
+    let mut l = [[0.0; 3]; 3];
+    for i in 0..3 {
+        for j in 0..=i {
+            let mut s = a[i][j];
+            for k in 0..j {
+                s -= l[i][k] * l[j][k];
+            }
+            if i == j {
+                if s <= 1e-10 * scale {
+                    return None;
+                }
+                l[i][i] = s.sqrt();
+            } else {
+                l[i][j] = s / l[j][j];
+            }
+        }
+    }
+    // Invert L (lower triangular), then A⁻¹ = L⁻ᵀ·L⁻¹.
+    let mut li = [[0.0; 3]; 3];
+    for i in 0..3 {
+        li[i][i] = 1.0 / l[i][i];
+        for j in 0..i {
+            let mut s = 0.0;
+            for k in j..i {
+                s -= l[i][k] * li[k][j];
+            }
+            li[i][j] = s / l[i][i];
+        }
+    }
+    let mut inv = [[0.0; 3]; 3];
+    for i in 0..3 {
+        for j in 0..3 {
+            inv[i][j] = (i.max(j)..3).map(|k| li[k][i] * li[k][j]).sum();
+        }
+    }
+    Some(inv)
 }

@@ -40,8 +40,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::evidence::unpack;
-use super::tracker::spd_inverse;
+use super::evidence::{spd_inverse, unpack};
 use super::{TripEvidence, N_MODES};
 use crate::exact;
 use crate::mode::{FaultMode, MACHINE_MODES};

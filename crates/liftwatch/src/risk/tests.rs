@@ -1,7 +1,6 @@
 //! Tests of the risk stage: synthetic trips with known injected signatures.
 
-use super::evidence::unpack;
-use super::tracker::spd_inverse;
+use super::evidence::{spd_inverse, unpack};
 use super::*;
 use crate::features::Phase;
 use crate::model::HybridModel;

@@ -12,55 +12,10 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::evidence::unpack;
+use super::evidence::{spd_inverse, unpack};
 use super::sequential::{Decision, Sequential};
 use super::{RiskConfig, TripEvidence, N_MODES};
 use crate::exact;
-
-/// Inverse of a symmetric positive-definite 3×3 matrix by Cholesky; `None` when it is not.
-pub(super) fn spd_inverse(p: &[f64; 6]) -> Option<[[f64; 3]; 3]> {
-    let a = unpack(p);
-    let scale = (a[0][0] + a[1][1] + a[2][2]) / 3.0;
-    if !(scale.is_finite() && scale > 0.0) {
-        return None;
-    }
-    let mut l = [[0.0; 3]; 3];
-    for i in 0..3 {
-        for j in 0..=i {
-            let mut s = a[i][j];
-            for k in 0..j {
-                s -= l[i][k] * l[j][k];
-            }
-            if i == j {
-                if s <= 1e-10 * scale {
-                    return None;
-                }
-                l[i][i] = s.sqrt();
-            } else {
-                l[i][j] = s / l[j][j];
-            }
-        }
-    }
-    // Invert L (lower triangular), then A⁻¹ = L⁻ᵀ·L⁻¹.
-    let mut li = [[0.0; 3]; 3];
-    for i in 0..3 {
-        li[i][i] = 1.0 / l[i][i];
-        for j in 0..i {
-            let mut s = 0.0;
-            for k in j..i {
-                s -= l[i][k] * li[k][j];
-            }
-            li[i][j] = s / l[i][i];
-        }
-    }
-    let mut inv = [[0.0; 3]; 3];
-    for i in 0..3 {
-        for j in 0..3 {
-            inv[i][j] = (i.max(j)..3).map(|k| li[k][i] * li[k][j]).sum();
-        }
-    }
-    Some(inv)
-}
 
 /// Recursive least squares with exponential forgetting, on per-trip normal equations.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]

@@ -25,7 +25,7 @@ fn main() {
         fit_load_cell(&series, &FeatureConfig::for_elevator(&elevator)).expect("enough motion");
     let feats = extract(&series, &fcfg);
     let prior = PhysParams::prior_centre(&elevator);
-    let (obs, moving, rest) = observations_weighted(
+    let o = observations_weighted(
         &feats.rows,
         elevator.floors,
         0.1,
@@ -33,6 +33,7 @@ fn main() {
         0.005 * elevator.rated_voltage(),
     )
     .expect("enough motion");
+    let (obs, moving, rest) = (o.obs, o.moving, o.standstill);
     println!(
         "data: {} samples, {} trips, {moving} moving samples, {rest} standstill ({} observations after grouping)",
         series.len(),

@@ -83,16 +83,22 @@ pub fn fit(
         crate::features::fit_load_cell(series, &FeatureConfig::for_elevator(elevator))?;
     let features = crate::features::extract(series, &feature_cfg);
     let prior = PhysParams::prior_centre(elevator);
-    let (obs, _, n_rest) = train::observations_weighted(
+    let observed = train::observations_weighted(
         &features.rows,
         elevator.floors,
         cfg.standstill_share,
         prior.ke,
         STANDSTILL_NOISE_SHARE * elevator.rated_voltage(),
     )?;
-    let trained = train::train(&obs, elevator, cfg, observer)?;
+    let trained = train::train(&observed.obs, elevator, cfg, observer)?;
     let mut summary = trained.summary;
-    summary.standstill_samples = n_rest;
+    summary.standstill_samples = observed.standstill;
+    if observed.drive_off_at_rest {
+        summary.warnings.push(format!(
+            "the drive is off at standstill (median {:.2} V between trips): U0 comes from the moving intercept, which it shares with friction F_c, so the two are split by their priors",
+            observed.rest_voltage_v
+        ));
+    }
     let hybrid = HybridModel {
         elevator: elevator.clone(),
         parameters: trained.parameters,

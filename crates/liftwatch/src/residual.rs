@@ -181,6 +181,7 @@ pub(crate) mod tests {
             rated_load_kg: 1000.0,
             moving_threshold_mps: 0.05,
             load_cell_platform_ratio: 0.3,
+            load_cell_load_gain: 1.0,
             beta_transient: 0.7,
             beta_cruise: 0.3,
         }

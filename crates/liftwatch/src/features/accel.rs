@@ -4,9 +4,9 @@
 //! ```text
 //! a_v = (v[t+1] − v[t−1]) / (t[t+1] − t[t−1])   central difference, one-sided at an edge;
 //!                                                 a neighbour at rest counts as v = 0
-//! a_L = g·(L − L_ref)/100 / (λ + p)               moving, door closed; NaN if |a_L| > 3 m/s²
+//! a_L = g·(L − L_ref)/100 / (k·λ + p)             moving, door closed; NaN if |a_L| > 3 m/s²
 //! phase   standstill | accelerating (a_v·s > 0.1) | decelerating (a_v·s < −0.1) | cruising
-//! β(λ) = 1 / (1 + (1/β_ref − 1)·((λ + p)/(λ_ref + p))²)
+//! β(λ) = 1 / (1 + (1/β_ref − 1)·((k·λ + p)/(k·λ_ref + p))²)
 //! a   = β·a_v + (1 − β)·a_L, the one path present alone, 0 at rest
 //! ```
 //!
@@ -25,10 +25,10 @@ impl FeatureConfig {
     /// acceleration.
     ///
     /// The configured β holds at the reference load [`BETA_REF_LAMBDA`]. The load cell's noise is
-    /// a fixed share of the rated load, so the noise of a_L scales as 1/(λ + p); read as an
+    /// a fixed share of the rated load, so the noise of a_L scales as 1/(k·λ + p); read as an
     /// inverse-variance weight, β = σ_L²/(σ_L² + σ_v²), the configured value fixes the ratio
     /// σ_v/σ_L at the reference load and the weight at λ follows:
-    /// `β(λ) = 1 / (1 + (1/β_ref − 1)·((λ + p)/(λ_ref + p))²)`. β = 0 and β = 1 stay fixed;
+    /// `β(λ) = 1 / (1 + (1/β_ref − 1)·((k·λ + p)/(k·λ_ref + p))²)`. β = 0 and β = 1 stay fixed;
     /// without λ the configured value is used.
     pub fn beta(&self, phase: Phase, lambda: f64) -> f64 {
         let beta_ref = match phase {
@@ -38,8 +38,7 @@ impl FeatureConfig {
         if !lambda.is_finite() || beta_ref <= 0.0 || beta_ref >= 1.0 {
             return beta_ref;
         }
-        let p = self.load_cell_platform_ratio;
-        let scale = (lambda + p) / (BETA_REF_LAMBDA + p);
+        let scale = self.inertial_mass_ratio(lambda) / self.inertial_mass_ratio(BETA_REF_LAMBDA);
         1.0 / (1.0 + (1.0 / beta_ref - 1.0) * scale * scale)
     }
 }
@@ -60,11 +59,11 @@ pub(super) fn speed_path(p: Option<Pre>, c: &Pre, n: Option<Pre>) -> f64 {
 }
 
 /// a_L of the held sample `c`, moving with the door closed: the load-cell law with the trip's
-/// reference `held_ref` (percent), λ and the platform ratio `p`; NaN otherwise or when
-/// implausible.
-pub(super) fn load_path(c: &Pre, held_ref: f64, lambda: f64, p: f64) -> f64 {
+/// reference `held_ref` (percent), λ and the cell's inertial law of `cfg`; NaN otherwise or
+/// when implausible.
+pub(super) fn load_path(cfg: &FeatureConfig, c: &Pre, held_ref: f64, lambda: f64) -> f64 {
     if c.s != 0 && c.door == Door::Closed && lambda.is_finite() {
-        let a = G * (c.load - held_ref) / 100.0 / (lambda + p);
+        let a = G * (c.load - held_ref) / 100.0 / cfg.inertial_mass_ratio(lambda);
         if a.abs() <= A_L_MAX_MPS2 {
             a
         } else {

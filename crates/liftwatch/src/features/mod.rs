@@ -5,14 +5,19 @@
 //! s   = sign(v) if |v| > v_move else 0        direction of motion
 //! λ   = L_ref / 100                           static load ratio, L_ref held from door close
 //! a_v = (v[t+1] − v[t−1]) / (t[t+1] − t[t−1]) speed path, central difference (one sample look-ahead)
-//! a_L = g·(L − L_ref)/100 / (λ + p)           load-cell inertial path, door closed, p fitted on history
+//! a_L = g·(L − L_ref)/100 / (k·λ + p)         load-cell inertial path, door closed, k and p fitted on history
 //! a   = β·a_v + (1 − β)·a_L                   β by phase of travel; a = 0 at rest
 //! ```
 //!
 //! Why a_L: the load-weighing cell sits under the platform and reads
 //! `100·(m_load·(g + a) + m_platform·a)/(M_r·g)` percent, so with the door closed (load constant)
-//! `L − L_ref = 100·a·(m_load + m_platform)/(M_r·g)`, i.e. the paper's `a_L = k·(L − L_ref)` with
-//! `k = g/(100·(λ + p))` and `p = m_platform/M_r`. [`fit_load_cell`] identifies p on history.
+//! `L − L_ref = 100·a·(m_load + m_platform)/(M_r·g)`, i.e. the paper's `a_L = k_L·(L − L_ref)` with
+//! `k_L = g/(100·(λ + p))` and `p = m_platform/M_r`. Not every cell is built that way: a cell that
+//! weighs the ropes' tension at the hitch, or a controller that reports a filtered or
+//! compensated load, may feel the inertia of a fixed mass only, the paper's constant `k_L`. The
+//! law therefore carries a load gain k, `k·λ + p` (1 under the platform, 0 for the paper's
+//! constant-k_L cell), and [`fit_load_cell`] identifies k and p on history when the loads of the
+//! training vary enough to tell them apart, p alone with k = 1 otherwise.
 //!
 //! λ is the reading at standstill with the door closed (the mean of those readings since the
 //! door last opened, which averages the cell's noise), held through the trip: while moving the
@@ -96,6 +101,11 @@ pub struct FeatureConfig {
     pub moving_threshold_mps: f64,
     /// p of the load-cell path: platform and sling mass felt by the cell, as a fraction of M_r.
     pub load_cell_platform_ratio: f64,
+    /// k of the load-cell path: how much of the load's own inertia the cell feels (1 for a
+    /// cell under the platform, 0 for the paper's constant-k_L cell); see
+    /// [`FeatureConfig::inertial_mass_ratio`]. Models before it existed mean 1.
+    #[serde(default = "unit_load_gain")]
+    pub load_cell_load_gain: f64,
     /// β while starting or braking (speed path weight), at the reference load
     /// [`BETA_REF_LAMBDA`]; [`FeatureConfig::beta`] scales it with the load.
     pub beta_transient: f64,
@@ -103,7 +113,18 @@ pub struct FeatureConfig {
     pub beta_cruise: f64,
 }
 
+/// The load gain of a cell under the platform, and of models written before k existed.
+fn unit_load_gain() -> f64 {
+    1.0
+}
+
 impl FeatureConfig {
+    /// k·λ + p: the mass, as a fraction of M_r, whose inertia the load cell feels with a load
+    /// ratio λ in the car; the one place of the cell's inertial law.
+    pub fn inertial_mass_ratio(&self, lambda: f64) -> f64 {
+        self.load_cell_load_gain * lambda + self.load_cell_platform_ratio
+    }
+
     /// Defaults for an elevator: moving above 0.05 m/s, p = 0.15 (a platform of 15 % of the
     /// rated load until [`fit_load_cell`] identifies it), β 0.3 while accelerating or
     /// decelerating and 0.95 while cruising (see the module's deviation note).
@@ -112,6 +133,7 @@ impl FeatureConfig {
             rated_load_kg: e.rated_load_kg,
             moving_threshold_mps: 0.05,
             load_cell_platform_ratio: 0.15,
+            load_cell_load_gain: 1.0,
             beta_transient: 0.3,
             beta_cruise: 0.95,
         }
@@ -140,6 +162,7 @@ impl FeatureConfig {
             0.01,
             2.0,
         )?;
+        check("load_cell_load_gain", self.load_cell_load_gain, 0.0, 2.0)?;
         check("beta_transient", self.beta_transient, 0.0, 1.0)?;
         check("beta_cruise", self.beta_cruise, 0.0, 1.0)
     }

@@ -3,7 +3,7 @@
 //!
 //! ```text
 //! a(t)   jerk 1 m/s³, |a| <= 0.8 m/s², |v| <= 1.75 m/s, integrated at 50 Hz
-//! L      = 100·(λ·(g + a) + p·a)/g + N(0, 0.5 %)      the load cell under the platform
+//! L      = 100·(λ·g + (k·λ + p)·a)/g + N(0, 0.5 %)    the load cell; k = 1 under the platform
 //! speed  = |v| + N(0, 0.005 m/s)
 //! ```
 
@@ -75,6 +75,12 @@ pub(super) struct Day {
 /// closed 4 s, the S-curve trip, 3 s at rest; the load cell reads
 /// `100·(λ·(g + a) + p·a)/g` plus noise. Samples at 1 Hz with a random phase.
 pub(super) fn day(legs: &[(u32, f64)], p: f64, seed: u64) -> Day {
+    day_with_cell(legs, 1.0, p, seed)
+}
+
+/// [`day`] with a load cell of load gain `k`: it reads `100·(λ·g + (k·λ + p)·a)/g` plus noise
+/// (k = 0 is the paper's constant-k_L cell).
+pub(super) fn day_with_cell(legs: &[(u32, f64)], k_gain: f64, p: f64, seed: u64) -> Day {
     let mut rng = Rng::new(seed);
     let (mut a, mut door, mut lam, mut dir) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     let mut floor = 1u32;
@@ -131,7 +137,8 @@ pub(super) fn day(legs: &[(u32, f64)], p: f64, seed: u64) -> Day {
         } else {
             0.0
         };
-        let load = 100.0 * (lam[k] * (G + a[k]) + p * a[k]) / G + LOAD_NOISE_PCT * rng.normal();
+        let inertial = (k_gain * lam[k] + p) * a[k];
+        let load = 100.0 * (lam[k] * G + inertial) / G + LOAD_NOISE_PCT * rng.normal();
         out.series.samples.push(Sample {
             time: t,
             speed,

@@ -267,7 +267,7 @@ impl FeatureTracker {
         let trip = self.advance_trip(p, &c, n);
         let held_ref = trip.as_ref().map_or(f64::NAN, |t| t.l_ref);
         let lambda = self.lambda(&c, held_ref);
-        let a_l = accel::load_path(&c, held_ref, lambda, self.cfg.load_cell_platform_ratio);
+        let a_l = accel::load_path(&self.cfg, &c, held_ref, lambda);
         let phase = accel::phase(&c, a_v);
         let a = accel::fuse(&self.cfg, &c, phase, lambda, a_v, a_l);
         FeatureRow {

@@ -17,6 +17,14 @@
 //! and the up/down asymmetry separates F_c from Δm; Ke and c separate only through α_down ≠ 1,
 //! weakly. [`ParamReport`] says, per parameter, whether the data or the prior decided it.
 //!
+//! Many drives are switched off at standstill: between trips the voltage reads a few tenths of
+//! a volt, not U0, and the drive is energised only to hold the car while the brake lifts and
+//! drops. Pinning U0 to those samples would push the moving intercept into F_c (seven to nine
+//! times its value on such drives). [`observations_weighted`] decides from the data which
+//! kind of drive it sees ([`DRIVE_OFF_SHARE`]); for a drive that is off at rest it leaves the
+//! standstill samples out, and U0 comes from the moving intercept and its prior (the summary
+//! then says that U0 and F_c share one intercept).
+//!
 //! Here: the observations (data preparation), the driver [`train`] and its history; the
 //! solvers are in [`optim`](crate::model::optim), the standard errors in `train/report.rs`.
 
@@ -61,6 +69,28 @@ const LOAD_BINS: f64 = 200.0;
 const MIN_PER_DIRECTION: usize = 30;
 /// Least standstill samples: they fix U0.
 const MIN_STANDSTILL: usize = 30;
+/// A drive whose median standstill voltage is below this share of its median moving voltage
+/// is off at rest. Energised, a drive shows U0 at rest, 1-3 % of its rated voltage and so
+/// 1.2-3.5 % of a cruising voltage at 85 % of it; a drive that is switched off shows the
+/// sensor's offset and noise, a few tenths of a volt, about 0.1 %. 0.5 % lies between,
+/// a factor of 2-5 from each.
+pub const DRIVE_OFF_SHARE: f64 = 0.005;
+
+/// The observations of a fit, and what the data said about the drive at rest.
+#[derive(Clone, Debug)]
+pub struct Observations {
+    /// Moving samples one by one, then standstill samples aggregated per load bin.
+    pub obs: Vec<Obs>,
+    /// Moving samples among them.
+    pub moving: usize,
+    /// Standstill samples that fix U0 (0 when the drive is off at rest).
+    pub standstill: usize,
+    /// Median voltage of the standstill samples (V).
+    pub rest_voltage_v: f64,
+    /// True when the drive is off at rest ([`DRIVE_OFF_SHARE`]): its standstill samples do not
+    /// show U0 and are left out.
+    pub drive_off_at_rest: bool,
+}
 
 /// The optimiser of stage 2.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -214,7 +244,7 @@ pub fn observations(
     rows: &[FeatureRow],
     floors: u32,
     standstill_share: f64,
-) -> Result<(Vec<Obs>, usize, usize)> {
+) -> Result<Observations> {
     observations_weighted(rows, floors, standstill_share, 0.0, 1.0)
 }
 
@@ -229,7 +259,7 @@ pub fn observations_weighted(
     standstill_share: f64,
     ke_v_s_per_m: f64,
     sigma_v: f64,
-) -> Result<(Vec<Obs>, usize, usize)> {
+) -> Result<Observations> {
     let ok = |r: &FeatureRow| {
         r.v.is_finite() && r.lambda.is_finite() && r.a.is_finite() && r.voltage.is_finite()
     };
@@ -239,6 +269,7 @@ pub fn observations_weighted(
     let mut bins: std::collections::BTreeMap<i64, (f64, f64, f64)> =
         std::collections::BTreeMap::new();
     let mut n_rest = 0usize;
+    let mut rest_voltages = Vec::new();
     for (i, r) in rows.iter().enumerate().filter(|(_, r)| ok(r)) {
         if r.s != 0 {
             let w = interpolation_weight(rows, i, ke_v_s_per_m, sigma_v);
@@ -268,6 +299,7 @@ pub fn observations_weighted(
             b.1 += r.lambda;
             b.2 += r.voltage;
             n_rest += 1;
+            rest_voltages.push(r.voltage);
         }
     }
     let moving_s = moving.len() as f64;
@@ -285,13 +317,25 @@ pub fn observations_weighted(
             "travel in one direction only ({up} s up, {down} s down): the up/down asymmetry that separates friction from imbalance is missing"
         )));
     }
+    let n_moving = moving.len();
+    let rest_voltage_v = crate::stats::median(&rest_voltages);
+    let moving_voltage_v = crate::stats::median(&moving.iter().map(|o| o.u).collect::<Vec<_>>());
+    let drive_off_at_rest = rest_voltage_v < DRIVE_OFF_SHARE * moving_voltage_v;
+    if drive_off_at_rest {
+        return Ok(Observations {
+            obs: moving,
+            moving: n_moving,
+            standstill: 0,
+            rest_voltage_v,
+            drive_off_at_rest,
+        });
+    }
     if n_rest < MIN_STANDSTILL {
         return Err(Error::Unidentifiable(format!(
             "only {n_rest} standstill samples with voltage: the base voltage U0 cannot be separated from friction"
         )));
     }
     let rest_w = standstill_share * moving_w / n_rest as f64;
-    let n_moving = moving.len();
     for (n, lam, u) in bins.into_values() {
         moving.push(Obs {
             s: 0,
@@ -303,7 +347,13 @@ pub fn observations_weighted(
             w: n * rest_w,
         });
     }
-    Ok((moving, n_moving, n_rest))
+    Ok(Observations {
+        obs: moving,
+        moving: n_moving,
+        standstill: n_rest,
+        rest_voltage_v,
+        drive_off_at_rest,
+    })
 }
 
 /// The weight σ²/(σ² + (Ke·Δ²v/8)²) of row `i`: see [`observations`].

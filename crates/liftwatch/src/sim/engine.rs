@@ -1,6 +1,7 @@
 //! The simulator's time loop: dispatcher, motion, doors and brake, the plant's physics and
 //! the logger, second by second (timings and equations in the module docs of [`super`]).
 
+use super::plant::DriveAtRest;
 use super::*;
 
 /// Most calls waiting at once; beyond it new calls are dropped (people take the stairs).
@@ -47,6 +48,8 @@ pub(super) struct Engine<'a, S: SimSink> {
     riders: Vec<(usize, f64)>,
     load_kg: f64,
     door: bool,
+    /// The drive is energised: from the brake lift before a trip to the brake drop after it.
+    energised: bool,
     dir_signal: i8,
     rise_k: f64,
     stuck_speed: Option<f64>,
@@ -107,6 +110,7 @@ impl<'a, S: SimSink> Engine<'a, S> {
             riders: Vec::new(),
             load_kg: 0.0,
             door: false,
+            energised: false,
             dir_signal: 0,
             rise_k: 0.09 * p.thermal.rise_full_k,
             stuck_speed: None,
@@ -204,6 +208,7 @@ impl<'a, S: SimSink> Engine<'a, S> {
         let dir: i8 = if dest > self.floor { 1 } else { -1 };
         self.dir_travel = dir;
         self.dir_signal = dir;
+        self.energised = true;
         let lift = self.rng.uniform(0.5, 1.2);
         self.rest(self.t + lift)?;
         let target = self.p.floor_positions_m[dest];
@@ -230,6 +235,7 @@ impl<'a, S: SimSink> Engine<'a, S> {
         let level = self.rng.uniform(0.3, 0.8);
         self.rest(self.t + level)?;
         self.dir_signal = 0;
+        self.energised = false;
         Ok(())
     }
 
@@ -413,8 +419,13 @@ impl<'a, S: SimSink> Engine<'a, S> {
             Signal::Voltage => {
                 let (x, v, a) = self.kin(m, ts);
                 let fx = self.cfg.scenario.effects_at(ts, self.p.f_c);
-                let f = self.p.force(x, v, a, self.load_kg, &fx);
-                let u = self.p.voltage(v, f, self.kd_at(ts, &fx));
+                let u = if sign(v) == 0 && self.p.drive_at_rest != DriveAtRest::Energised {
+                    self.p
+                        .rest_voltage(x, self.load_kg, self.energised, self.kd_at(ts, &fx))
+                } else {
+                    let f = self.p.force(x, v, a, self.load_kg, &fx);
+                    self.p.voltage(v, f, self.kd_at(ts, &fx))
+                };
                 quant(
                     (u + sp.voltage_noise_v * rng.normal()).max(0.0),
                     sp.voltage_quant_v,
@@ -490,7 +501,11 @@ impl<'a, S: SimSink> Engine<'a, S> {
             pos_true: x,
             load_true: self.load_kg / self.p.rated.rated_load_kg,
             force_true: force,
-            voltage_true: self.p.voltage(v, force, kd),
+            voltage_true: if moving || self.p.drive_at_rest == DriveAtRest::Energised {
+                self.p.voltage(v, force, kd)
+            } else {
+                self.p.rest_voltage(x, self.load_kg, self.energised, kd)
+            },
             kd_true: kd,
             severity: fx.severity,
         };

@@ -81,7 +81,7 @@ use crate::sample::{AlignedSeries, Sample};
 
 pub use logger::{AlignedCsvWriter, RawCsvWriter, RawRow, Signal, ALIGNED_HEADER, SIMULATED};
 pub use motion::{Kinematics, SCurve};
-pub use plant::SimElevator;
+pub use plant::{DriveAtRest, SimElevator};
 pub use scenario::{parse_scenario, truth_name, Effects, Ramp, Scenario, SensorFault};
 pub use traffic::{Call, Traffic};
 

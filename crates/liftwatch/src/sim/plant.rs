@@ -42,6 +42,23 @@ pub struct Thermal {
     pub t_ref_c: f64,
 }
 
+/// What the drive does at standstill.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case", tag = "kind")]
+pub enum DriveAtRest {
+    /// Energised between trips: the voltage reads U0, MODEL.md's base voltage.
+    #[default]
+    Energised,
+    /// Switched off between trips: the voltage reads the sensor's offset `idle_v`. The drive
+    /// is energised only from the brake lift to the brake drop of a trip, and holds the car
+    /// with pre-torque meanwhile: U0 plus the resistive drop of the holding force,
+    /// U0 + Kd·|m_eq·g|.
+    Off {
+        /// What the voltage sensor reads with the drive off (V).
+        idle_v: f64,
+    },
+}
+
 /// Sensor characteristics of one installation.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct SensorSpec {
@@ -112,8 +129,21 @@ pub struct SimElevator {
     pub alpha_down: f64,
     /// Winding thermal model.
     pub thermal: Thermal,
+    /// The drive at standstill (energised unless set: the draw of [`SimElevator::from_elevator`]
+    /// keeps its seeds).
+    #[serde(default)]
+    pub drive_at_rest: DriveAtRest,
+    /// How much of the load's inertia the load cell feels: 1 for a cell under the platform,
+    /// 0 for the paper's constant-k cell (`load = 100·λ + a/k`), which feels a fixed mass only.
+    #[serde(default = "unit_gain")]
+    pub load_cell_load_gain: f64,
     /// Sensors.
     pub sensors: SensorSpec,
+}
+
+/// The load gain of a cell under the platform.
+fn unit_gain() -> f64 {
+    1.0
 }
 
 impl SimElevator {
@@ -186,6 +216,8 @@ impl SimElevator {
                 tau_s: rng.uniform(1800.0, 3600.0),
                 t_ref_c: 0.0,
             },
+            drive_at_rest: DriveAtRest::Energised,
+            load_cell_load_gain: 1.0,
             sensors: SensorSpec {
                 speed_noise_mps: rng.uniform(0.003, 0.007),
                 speed_quant_mps: 0.001,
@@ -276,9 +308,26 @@ impl SimElevator {
         (self.u0 + self.ke * v.abs() + phi * kd * force * f64::from(s)).max(0.0)
     }
 
-    /// Load-cell reading without noise (% of rated): the cell carries platform and load.
+    /// Motor voltage magnitude (V) at standstill at height `x` with `load_kg` aboard: U0 for a
+    /// drive energised at rest; for one that is off, the sensor's offset, or U0 plus the
+    /// resistive drop of the pre-torque holding the car while `energised` (brake lift and drop).
+    pub fn rest_voltage(&self, x: f64, load_kg: f64, energised: bool, kd: f64) -> f64 {
+        match self.drive_at_rest {
+            DriveAtRest::Energised => self.u0,
+            DriveAtRest::Off { idle_v } if !energised => idle_v,
+            DriveAtRest::Off { .. } => {
+                let m_eq = self.car_mass_kg + load_kg - self.counterweight_mass_kg()
+                    + self.imbalance_kg(x);
+                self.u0 + kd * (m_eq * G).abs()
+            }
+        }
+    }
+
+    /// Load-cell reading without noise (% of rated): the cell carries platform and load, and
+    /// feels the inertia of the platform and of the share `load_cell_load_gain` of the load.
     pub fn load_cell_pct(&self, load_kg: f64, a: f64) -> f64 {
-        100.0 * (load_kg * (G + a) + self.platform_mass_kg * a) / (self.rated.rated_load_kg * G)
+        let felt = load_kg * (G + self.load_cell_load_gain * a) + self.platform_mass_kg * a;
+        100.0 * felt / (self.rated.rated_load_kg * G)
     }
 
     /// The true parameters in the identification model's terms (MODEL.md and

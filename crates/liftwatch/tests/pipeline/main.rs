@@ -1,5 +1,6 @@
 //! Integration tests of the pipeline, one module per stage.
 mod align;
+mod drive;
 mod evaluate;
 mod features;
 mod layers;

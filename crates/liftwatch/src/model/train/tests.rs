@@ -91,7 +91,7 @@ fn paper_exact_data_give_the_identifiable_parameters_back_within_2_percent() {
     let e = Elevator::new(1000.0, 1.75, 26);
     let t = truth();
     let rows = paper_exact(&t, &e, 2.0, 480, 5);
-    let (obs, _, _) = observations(&rows, e.floors, 0.1).unwrap();
+    let obs = observations(&rows, e.floors, 0.1).unwrap().obs;
     let cfg = TrainConfig {
         epochs: 200,
         log_every: 0,
@@ -164,7 +164,7 @@ fn the_network_corrects_what_the_physics_cannot_represent() {
     for r in rows.iter_mut().filter(|r| r.s != 0) {
         r.voltage += 5.0 * (-((r.v.abs() - 0.9) / 0.3).powi(2)).exp();
     }
-    let (obs, _, _) = observations(&rows, e.floors, 0.1).unwrap();
+    let obs = observations(&rows, e.floors, 0.1).unwrap().obs;
     let physics_only = TrainConfig {
         epochs: 0,
         log_every: 0,

@@ -2,6 +2,7 @@
 mod align;
 mod evaluate;
 mod features;
+mod forecast;
 mod layers;
 mod monitor;
 mod sim;

@@ -31,10 +31,12 @@
 //! (11 of 38 missed), the known downward bias of both on short series of fitted residuals.
 //!
 //! The advisory and alarm levels are risks, not drifts; they are translated into the drift
-//! that, held steady, brings the mode's risk to the level ([`drift_for_risk`]). The combined
-//! risk also counts the trip-level lens, and the advisory is also raised by the sequential
-//! test, so a level may come earlier than its drift; it never comes later from a drift held at
-//! that size.
+//! that, held steady, brings the mode's risk to the level ([`drift_for_risk`]). They are an
+//! approximation both ways: the advisory is also raised by the sequential test, so it may
+//! come before its drift; and the risk's lens sees the re-identification's drift, which lags
+//! the blocks' by up to its forgetting horizon (3000 trips, about five busy days), so R reaches
+//! a level up to that much after the blocks' drift crosses its equivalent (the demo: the
+//! block drift passes the alarm's +4.8 % on day 7, the alarm comes on day 9.5).
 
 // Per-mode arrays read best with explicit indices.
 #![allow(clippy::needless_range_loop)]
@@ -374,11 +376,15 @@ pub struct Forecast {
 }
 
 /// The drift of mode `m` that, held on every trip, brings the mode's risk to `risk`: the
-/// per-mode lens c = ln(1 + d/σ_m) in excess of τ_m, accumulated to its steady state
+/// per-mode lens c = ln(1 + d/max(σ_m, k_m·SE_m)) in excess of τ_m, accumulated to its steady state
 /// x·exp(κ·D_max)/(1 − γ) (relative units).
 pub fn drift_for_risk(cfg: &RiskConfig, m: usize, risk: f64) -> f64 {
     let x = risk / cfg.steady_state(1.0);
-    cfg.drift_sd[m] * ((cfg.tau_modes[m] + x).exp() - 1.0)
+    // The lens divides by max(σ_m, k_m·SE_m); SE_m of the re-identification at its healthy
+    // information (the prior information the tracker starts from).
+    let se = spd_inverse(&cfg.prior_info).map_or(0.0, |inv| (cfg.prior_s2 * inv[m][m]).sqrt());
+    let scale = cfg.drift_sd[m].max(cfg.se_scale[m] * se);
+    scale * ((cfg.tau_modes[m] + x).exp() - 1.0)
 }
 
 /// Factor and unit that turn mode `m`'s relative drift into its physical unit; `f_c` is the

@@ -29,8 +29,10 @@ use crate::risk::friction_reference;
 
 /// Hours of healthy training below which the verdict says the model is short of data: a
 /// week holds seven thermal cycles of the winding and a weekend's traffic, what the
-/// calibration's bootstrap needs to see to state its false-alarm rate (README, Method).
-pub const FULL_TRAINING_HOURS: f64 = 168.0;
+/// calibration's bootstrap needs to see to state its false-alarm rate (README, Method). The
+/// hours are counted from the first to the last trip, so a week's log measures a few hours
+/// less (no trips at night at its ends): 160 h.
+pub const FULL_TRAINING_HOURS: f64 = 160.0;
 
 /// One mode's drift now, in its physical unit.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -315,7 +317,7 @@ fn caveats(model: &FittedModel, state: &MonitorState) -> Vec<String> {
     let mut out = Vec::new();
     match &model.calibration {
         Some(k) if k.hours < FULL_TRAINING_HOURS => out.push(format!(
-            "the model learnt from {:.0} h of healthy data, less than the week ({FULL_TRAINING_HOURS:.0} h) that holds seven thermal cycles and a weekend: its thresholds are only as honest as those hours are typical",
+            "the model learnt from {:.0} h of healthy data, less than the week that holds seven thermal cycles and a weekend: its thresholds are only as honest as those hours are typical",
             k.hours
         )),
         Some(_) => {}

@@ -247,7 +247,7 @@ pub fn trend(points: &[DriftPoint], m: usize, now: f64) -> Option<Trend> {
     let t_mean = days.iter().map(|d| d.2 * d.0).sum::<f64>() / sw;
     let y_mean = days.iter().map(|d| d.2 * d.1).sum::<f64>() / sw;
     let stt: f64 = days.iter().map(|d| d.2 * (d.0 - t_mean).powi(2)).sum();
-    if !(stt > 0.0) {
+    if stt.is_nan() || stt <= 0.0 {
         return None;
     }
     let b = days

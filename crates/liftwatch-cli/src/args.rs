@@ -26,6 +26,8 @@ pub enum Command {
     Fit(cmd::fit::Args),
     /// Watch telemetry with a fitted model: residuals, risk, levels, events.
     Monitor(cmd::monitor::Args),
+    /// The verdict of a monitor's saved state: level, mode, drift, what to inspect, forecast.
+    Status(cmd::status::Args),
     /// Compare liftwatch with the threshold baseline, CUSUM and EWMA on a seeded simulated suite.
     Evaluate(cmd::evaluate::Args),
     /// Write figures (SVG and PNG) and an HTML report about telemetry, read with a fitted model.
@@ -41,6 +43,7 @@ impl Command {
             Command::Align(a) => cmd::align::run(a),
             Command::Fit(a) => cmd::fit::run(a),
             Command::Monitor(a) => cmd::monitor::run(a),
+            Command::Status(a) => cmd::status::run(a),
             Command::Evaluate(a) => cmd::evaluate::run(a),
             Command::Report(a) => cmd::report::run(a),
         }

@@ -211,3 +211,25 @@ fn clean_input_gives_no_warning() {
         "{lines:?}"
     );
 }
+
+#[test]
+fn status_refuses_a_missing_or_foreign_state_in_one_line() {
+    let dir = Dir::new("status");
+    let model = dir.file("model.json", b"{}");
+    let state = dir.path("absent.json");
+    let run = liftwatch(&["status", "--model", s(&model), "--state", s(&state)]);
+    assert!(
+        !run.ok && !run.stderr.contains("panicked"),
+        "{}",
+        run.stderr
+    );
+    assert_eq!(run.stderr.lines().count(), 1, "{}", run.stderr);
+    assert!(
+        run.stderr.starts_with("liftwatch: cannot use the model"),
+        "{}",
+        run.stderr
+    );
+    let garbage = dir.file("state.json", b"{\"format_version\": 1}");
+    let run = liftwatch(&["status", "--model", s(&garbage), "--state", s(&garbage)]);
+    assert!(!run.ok && run.stderr.lines().count() == 1, "{}", run.stderr);
+}

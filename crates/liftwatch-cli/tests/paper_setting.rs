@@ -1,6 +1,7 @@
 //! The paper's own training size through the real binary (paper, Sec. 5: 3 h at 1 Hz, about
 //! 80 trips and 950 moving samples): `fit` accepts it, says which limits it had to
-//! extrapolate, and `monitor` watches the following day with both methods.
+//! extrapolate, `monitor` watches the following day with both methods, and `status` reads
+//! the saved state: normal, with the short training among its caveats.
 
 use std::path::Path;
 use std::process::Command;
@@ -111,12 +112,13 @@ fn three_hours_and_eighty_trips_fit_and_monitor() {
         fit.contains("extrapolated from the 98."),
         "the fit must say its baseline limits are extrapolated:\n{fit}"
     );
+    let state = dir.0.join("state.json");
     for method in ["pinn", "threshold"] {
         let (rows, events) = (
             dir.0.join(format!("{method}.csv")),
             dir.0.join(format!("{method}.jsonl")),
         );
-        let text = run(&[
+        let mut args = vec![
             "monitor",
             "--model",
             s(&model),
@@ -128,7 +130,11 @@ fn three_hours_and_eighty_trips_fit_and_monitor() {
             s(&events),
             "--method",
             method,
-        ]);
+        ];
+        if method == "pinn" {
+            args.extend(["--state", s(&state)]);
+        }
+        let text = run(&args);
         let n = std::fs::read_to_string(&rows)
             .expect("rows written")
             .lines()
@@ -143,4 +149,42 @@ fn three_hours_and_eighty_trips_fit_and_monitor() {
             );
         }
     }
+    // The verdict of the saved state: normal, and the model's own caveat of its 3 hours.
+    let text = run(&["status", "--model", s(&model), "--state", s(&state)]);
+    let first = text.lines().next().unwrap_or_default();
+    assert!(first.starts_with("NORMAL (as of "), "{text}");
+    assert!(
+        text.contains("Forecast: ") && text.contains("Evidence: "),
+        "{text}"
+    );
+    assert!(
+        text.contains("learnt from 3 h of healthy data"),
+        "the short training is a caveat:\n{text}"
+    );
+    let json = run(&[
+        "status",
+        "--model",
+        s(&model),
+        "--state",
+        s(&state),
+        "--json",
+    ]);
+    assert_eq!(json.trim().lines().count(), 1, "one JSON object: {json}");
+    let v: serde_json::Value = serde_json::from_str(json.trim()).expect("status --json is JSON");
+    assert_eq!(v["level"], "normal");
+    assert_eq!(v["forecast"]["modes"].as_array().map(Vec::len), Some(3));
+    assert!(v["caveats"].as_array().is_some_and(|c| !c.is_empty()));
+    // A state of another model is refused in one line, naming both.
+    let mut foreign: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&state).expect("state written")).expect("JSON");
+    foreign["model_id"] = "0123456789abcdef".into();
+    let other = dir.0.join("other-state.json");
+    std::fs::write(&other, foreign.to_string()).expect("writable");
+    let out = Command::new(env!("CARGO_BIN_EXE_liftwatch"))
+        .args(["status", "--model", s(&model), "--state", s(&other)])
+        .output()
+        .expect("the binary runs");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.lines().count() == 1, "{err}");
+    assert!(err.contains("belongs to model 0123456789abcdef"), "{err}");
 }

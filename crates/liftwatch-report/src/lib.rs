@@ -19,21 +19,26 @@
 //! # Ok(()) }
 //! ```
 //!
-//! The figures, in report order (file stems of [`FIGURES`]):
+//! The page opens with the verdict ([`liftwatch::verdict::Verdict`], the text `liftwatch
+//! status` prints): level, mode, drift ± error since when, what to inspect, the forecast, the
+//! evidence and the model's caveats. Then the figures, in report order (file stems of
+//! [`FIGURES`]), the specialist ones in an appendix ([`APPENDIX`]):
 //!
 //! | stem | what it shows |
 //! |------|---------------|
-//! | `preprocessing` | aligned speed and signed v, load reading and held λ, door, floor over the busiest 20 min |
-//! | `acceleration`  | a_v, a_L and the fused a over three trips of that excerpt |
-//! | `training`      | loss (log scale), RMS r_U and RMS r_F against the iteration, stage 2 marked |
-//! | `parameters`    | one small panel per physical parameter θ_k, final value and ± one standard error |
-//! | `fit`           | U vs U_pred, F_U vs F_pred and both residuals over a busy 6 min near the end |
+//! | `risk`          | combined R with advisory/alarm thresholds, events and the change's start; per-mode R_m; the drifts in physical units (Kd %, friction %, brake drag N) |
 //! | `residuals`     | r_U and r_F of every moving sample over the whole input, trip means, running mean |
-//! | `risk`          | combined R with advisory/alarm thresholds and events; per-mode R_m |
+//! | `fit`           | U vs U_pred, F_U vs F_pred and both residuals over a busy 6 min near the end |
 //! | `comparison`    | fixed-threshold baseline alarm state (activations counted) over the liftwatch risk |
 //! | `usage`         | trips, door cycles and time moving by hour of day; histogram of trip λ |
+//! | `preprocessing` | (appendix) aligned speed and signed v, load reading and held λ, door, floor over the busiest 20 min |
+//! | `acceleration`  | (appendix) a_v, a_L and the fused a over three trips of that excerpt |
+//! | `training`      | (appendix) loss (log scale), RMS r_U and RMS r_F against the iteration, stage 2 marked |
+//! | `parameters`    | (appendix) one small panel per physical parameter θ_k, final value and ± one standard error |
 //!
-//! Design choices: time axes in s, min, h or days by span; whole-span series thinned to the
+//! Design choices: whole-span time axes in days (or h, min, s) since midnight UTC of the first
+//! day when the data's clock is Unix time (the zone is said on the axis), since the data's
+//! start otherwise; whole-span series thinned to the
 //! minimum and maximum of each pixel column; missing values and time gaps break lines; ranges from
 //! quantiles so one outlier cannot squash a panel; the risk axis turns logarithmic when the
 //! advisory and alarm thresholds are more than a factor 50 apart.
@@ -51,7 +56,7 @@ use liftwatch::alarm::Event;
 use liftwatch::features::Features;
 use liftwatch::fit::FittedModel;
 pub use liftwatch::monitor::Analysis;
-use liftwatch::monitor::MonitorRow;
+use liftwatch::monitor::{MonitorRow, MonitorState};
 use liftwatch::AlignedSeries;
 
 /// What can go wrong while writing a report.
@@ -95,6 +100,8 @@ pub struct ReportInputs<'a> {
     pub threshold: &'a [MonitorRow],
     /// The level changes of the paper's method.
     pub events: &'a [Event],
+    /// The paper's method's state at the end of `series`: the verdict the report opens with.
+    pub state: &'a MonitorState,
     /// Name of the input shown in the report (a file name).
     pub source: &'a str,
 }
@@ -115,23 +122,28 @@ impl<'a> ReportInputs<'a> {
             pinn: &analysis.pinn,
             threshold: &analysis.threshold,
             events: &analysis.events,
+            state: &analysis.state,
             source,
         }
     }
 }
 
-/// The figures of a report, by file stem, in the order the report shows them.
+/// The figures of a report, by file stem, in the order the report shows them: after the
+/// verdict what a maintenance engineer reads, then the specialist figures ([`APPENDIX`]).
 pub const FIGURES: [&str; 9] = [
+    "risk",
+    "residuals",
+    "fit",
+    "comparison",
+    "usage",
     "preprocessing",
     "acceleration",
     "training",
     "parameters",
-    "fit",
-    "residuals",
-    "risk",
-    "comparison",
-    "usage",
 ];
+
+/// The specialist figures, shown in the report's appendix: the preprocessing and the training.
+pub const APPENDIX: [&str; 4] = ["preprocessing", "acceleration", "training", "parameters"];
 
 /// Writes every figure (SVG and PNG) and `index.html` into `dir` (created if missing);
 /// returns the paths written, `index.html` last.
@@ -199,6 +211,7 @@ mod tests {
         let series = sim.aligned();
         let cfg = TrainConfig {
             epochs: 60,
+            log_every: 10,
             ..TrainConfig::default()
         };
         let model = liftwatch::fit::fit(&series, &elevator, &cfg, &mut |_| {})
@@ -272,6 +285,21 @@ mod tests {
         // Numbers come from the data: the trip count of the usage text is the features' count.
         assert!(index.contains(&format!("{} complete trips", features.trips.len())));
         assert!(!index.contains("NaN") && !index.contains("TODO"));
+        // The page opens with the verdict, the text `status` prints, before any figure.
+        let verdict = liftwatch::verdict::Verdict::new(&model, &analysis.state).lines();
+        let at = index.find("id=\"verdict\"").expect("a verdict section");
+        assert!(
+            at < index.find("<img").expect("figures"),
+            "the verdict comes first"
+        );
+        assert!(
+            index.contains(&section::escape(&verdict[0])),
+            "{}",
+            verdict[0]
+        );
+        assert!(
+            index.find("id=\"appendix\"").expect("an appendix") > index.find("risk.svg").unwrap()
+        );
         // A short excerpt with a gap and no complete trip still gives a full report.
         let mut short = AlignedSeries {
             step_s: 1.0,

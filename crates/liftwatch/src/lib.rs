@@ -60,11 +60,13 @@ pub mod residual;
 pub mod sensor;
 pub mod risk;
 pub mod alarm;
+pub mod forecast;
 pub mod baseline;
 pub mod calibrate;
 pub mod fit;
 pub mod file;
 pub mod monitor;
+pub mod verdict;
 
 // Around the pipeline: a simulator to test it on, and the evaluation suite.
 pub mod sim;

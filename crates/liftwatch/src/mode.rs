@@ -53,6 +53,34 @@ impl FaultMode {
         }
     }
 
+    /// The part of the installation the mode names, for people: `drive`, `brake`, …
+    pub fn subsystem(self) -> &'static str {
+        match self {
+            FaultMode::Motor => "drive",
+            FaultMode::Brake => "brake",
+            FaultMode::Friction => "guide rails",
+            FaultMode::Sensor => "sensors",
+            FaultMode::Unknown => "machine (no single signature)",
+        }
+    }
+
+    /// What a maintenance engineer inspects when the evidence points at this mode.
+    pub fn inspect(self) -> &'static str {
+        match self {
+            FaultMode::Motor => {
+                "inspect the drive and the motor winding (resistance, connections, cooling)"
+            }
+            FaultMode::Brake => "inspect the brake: release, armature gap and lining",
+            FaultMode::Friction => "inspect the guide rails and shoes: lubrication and alignment",
+            FaultMode::Sensor => {
+                "check the speed, load and floor sensors and their wiring: the data look wrong"
+            }
+            FaultMode::Unknown => {
+                "inspect drive, brake and guides: the evidence fits no single signature yet"
+            }
+        }
+    }
+
     /// True for the three modes of the machine itself (not `sensor`, not `unknown`).
     pub fn is_machine(self) -> bool {
         (self as usize) < N_MODES

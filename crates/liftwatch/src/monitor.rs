@@ -40,6 +40,7 @@ use crate::baseline::Baseline;
 use crate::error::{Error, Result};
 use crate::features::{FeatureRow, FeatureTracker, Trip};
 use crate::fit::FittedModel;
+use crate::forecast::DriftHistory;
 use crate::output::write_atomic;
 use crate::residual::{PredictionCache, Residuals};
 use crate::risk::{friction_reference, RiskTracker, TripAccumulator};
@@ -145,13 +146,17 @@ pub struct Analysis {
     pub threshold: Vec<MonitorRow>,
     /// The paper's method's events.
     pub events: Vec<Event>,
+    /// The paper's method's state at the end of the series: what the verdict reads.
+    pub state: MonitorState,
 }
 
 impl Analysis {
     /// Runs the features and both monitors over `series` ([`run`]).
     pub fn run(model: &FittedModel, series: &crate::sample::AlignedSeries) -> Self {
         let features = crate::features::extract(series, &model.features);
-        let pinn = run(model, &series.samples, Method::Pinn);
+        let mut m = Monitor::new(model, Method::Pinn);
+        let mut pinn: Vec<MonitorRow> = series.samples.iter().filter_map(|s| m.push(s)).collect();
+        pinn.extend(m.finish());
         let threshold = run(model, &series.samples, Method::Threshold);
         let events = pinn.iter().filter_map(|r| r.event).collect();
         Analysis {
@@ -159,6 +164,7 @@ impl Analysis {
             pinn,
             threshold,
             events,
+            state: m.state(),
         }
     }
 }
@@ -262,6 +268,14 @@ pub struct MonitorState {
     pub implausible_trips: u64,
     /// Events emitted.
     pub events: u64,
+    /// Time of the event that opened the current episode (s), NaN at `normal`; states written
+    /// before it was recorded read NaN.
+    #[serde(with = "crate::exact", default = "nan")]
+    pub episode_since: f64,
+    /// The drifts per block of trips, for the time-to-maintenance forecast; empty in states
+    /// written before it was kept (bounded: [`crate::forecast::MAX_POINTS`] blocks).
+    #[serde(default)]
+    pub drifts: DriftHistory,
 }
 
 impl MonitorState {
@@ -311,6 +325,37 @@ impl MonitorState {
     pub fn level(&self) -> Level {
         self.alarm.level()
     }
+
+    /// The mode of the open episode (`unknown` at `normal`).
+    pub fn episode_mode(&self) -> FaultMode {
+        self.episode_mode
+    }
+
+    /// The risk stage's latest assessment: risks, drifts with their errors, the decision.
+    pub fn assessment(&self) -> &crate::risk::TripAssessment {
+        &self.risk.last
+    }
+
+    /// Trips taken as machine evidence by the risk stage.
+    pub fn risk_trips(&self) -> u64 {
+        self.risk.trips
+    }
+
+    /// Trips of the longest change the sequential decision now holds (0 when none).
+    pub fn held_window_trips(&self, cfg: &crate::risk::RiskConfig) -> u32 {
+        self.risk.held_window_trips(cfg)
+    }
+
+    /// Time at which the change the sequential decision now holds began (the block of its
+    /// first changed trip), `None` when it holds none.
+    pub fn changed_since(&self, cfg: &crate::risk::RiskConfig) -> Option<f64> {
+        let held = self.risk.held_window_trips(cfg);
+        if held == 0 {
+            return None;
+        }
+        let first = self.drifts.trips.saturating_sub(u64::from(held)) + 1;
+        self.drifts.time_of_trip(first)
+    }
 }
 
 /// Default of [`MonitorState::last_time`] for states written before it was recorded.
@@ -349,6 +394,8 @@ impl Monitor {
             trips: 0,
             implausible_trips: 0,
             events: 0,
+            episode_since: f64::NAN,
+            drifts: DriftHistory::default(),
         };
         Monitor {
             model: model.clone(),
@@ -480,6 +527,7 @@ impl Monitor {
         };
         if plausible {
             st.risk.push(&self.model.risk, &ev);
+            st.drifts.push(&self.model.risk, &ev, ev.end);
         } else {
             st.implausible_trips = st.implausible_trips.saturating_add(1);
         }
@@ -504,6 +552,11 @@ impl Monitor {
                 evidence,
             });
             st.events = st.events.saturating_add(1);
+            if level == Level::Normal {
+                st.episode_since = f64::NAN;
+            } else if before == Level::Normal {
+                st.episode_since = x.time;
+            }
         }
         MonitorRow {
             time: x.time,

@@ -23,6 +23,12 @@ use liftwatch::Elevator;
 use liftwatch::{file, fit};
 use liftwatch_report::{write_report, ReportInputs};
 
+/// Start of the watched run on a Unix clock, so that the report and the verdict show dates:
+/// 2026-02-26 00:00 UTC, day 20510 since the epoch, a multiple of 7 days, which the
+/// simulator's week (its day 0 is a Monday) takes for a Monday. (The Unix epoch was a
+/// Thursday, so the simulated weekends fall on calendar Tuesdays and Wednesdays.)
+const WATCH_START_S: f64 = 20_510.0 * 86_400.0;
+
 /// Flags of `liftwatch demo`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
@@ -107,10 +113,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let outcome = fit::fit(
         &series,
         &elevator,
-        &TrainConfig {
-            log_every: 0,
-            ..TrainConfig::default()
-        },
+        // The default logs a history point every 100 iterations: the report's training and
+        // parameter figures are drawn from them (no progress is printed: the observer is silent).
+        &TrainConfig::default(),
         &mut |_| {},
     )
     .context("fitting the training days")?;
@@ -127,9 +132,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         ),
     );
     let run_dir = out.join("degraded");
-    let mut run_cfg = SimConfig::new(elevator.clone(), args.days, args.seed ^ 0x7761_7463)
-        .with_mode(args.scenario.mode());
-    run_cfg.plant = Some(plant);
+    let mut run_cfg = SimConfig::new(elevator.clone(), args.days, args.seed ^ 0x7761_7463);
+    run_cfg.start_s = WATCH_START_S;
+    let run_cfg = SimConfig {
+        plant: Some(plant),
+        ..run_cfg.with_mode(args.scenario.mode())
+    };
     let truth = write_dir(&run_cfg, &run_dir, &mut |d| {
         eprint!("\r  day {d:.0} of {}   ", args.days)
     })?;

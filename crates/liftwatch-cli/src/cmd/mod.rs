@@ -7,3 +7,4 @@ pub mod fit;
 pub mod monitor;
 pub mod report;
 pub mod simulate;
+pub mod status;

@@ -21,6 +21,7 @@ mod training;
 mod usage;
 
 use liftwatch::features::{FeatureRow, Trip};
+use liftwatch::ingest::time::{instant_text, is_calendar};
 use liftwatch::residual::Residuals;
 use plotters::style::RGBColor;
 
@@ -37,17 +38,21 @@ const EXCERPT_S: f64 = 1200.0;
 pub(crate) fn all(inp: &ReportInputs) -> Vec<Section> {
     let c = Ctx::new(inp);
     let (pa, pb) = c.busiest(0.0, EXCERPT_S);
-    vec![
-        signals::preprocessing(&c, pa, pb),
-        signals::acceleration(&c, pa, pb),
-        training::training(&c),
-        training::parameters(&c),
-        fit::fit(&c),
-        residuals::residuals(&c),
+    let mut out = vec![
         risk::risk(&c),
+        residuals::residuals(&c),
+        fit::fit(&c),
         comparison::comparison(&c),
         usage::usage(&c),
-    ]
+        signals::preprocessing(&c, pa, pb),
+        signals::acceleration(&c, pa, pb),
+    ];
+    // A history of two points (a fit that logged only its stage ends) is no curve to show.
+    if c.inp.model.summary.history.len() > 2 {
+        out.push(training::training(&c));
+        out.push(training::parameters(&c));
+    }
+    out
 }
 
 /// A time axis: origin, unit and description.
@@ -75,9 +80,18 @@ impl Time {
         }
     }
 
-    /// The axis of the whole series: time since its start.
+    /// The axis of the whole series: on a Unix clock, time since midnight UTC of its first
+    /// day (the zone said); on a relative clock, time since its start.
     fn whole(start: f64, end: f64) -> Time {
         let (unit_s, u) = Time::unit(end - start);
+        if is_calendar(start) {
+            let midnight = (start / 86_400.0).floor() * 86_400.0;
+            return Time {
+                origin: midnight,
+                unit_s,
+                label: format!("{u} since {}", instant_text(midnight)),
+            };
+        }
         Time {
             origin: start,
             unit_s,

@@ -134,10 +134,17 @@ impl WholeResidual {
             .map(|(r, q)| if r.s != 0 { (self.get)(q) } else { f64::NAN })
             .collect();
         let means = trip_means(rows, &y);
-        let (lo, hi) = robust_range(&y, 0.002, 0.998, &[-3.0 * sigma, 3.0 * sigma]);
+        // The axis is the trip means' range (with ±3σ of the samples): a 0.7σ drift of the
+        // means stays visible. Samples beyond it, up to ±40 V in jerk phases, are not drawn.
+        let mv: Vec<f64> = means.iter().map(|p| p.1).collect();
+        let (lo, hi) = robust_range(&mv, 0.002, 0.998, &[-3.0 * sigma, 3.0 * sigma]);
+        let y: Vec<f64> = y
+            .iter()
+            .map(|v| if (lo..=hi).contains(v) { *v } else { f64::NAN })
+            .collect();
         let mut p = Panel::new(
             format!(
-                "{} {sym} while moving: samples (grey) and trip means",
+                "{} {sym} while moving: trip means, and the samples within the axis (grey)",
                 self.name
             ),
             c.whole.axis(c.start, c.end),
@@ -166,7 +173,6 @@ impl WholeResidual {
             label: Some(format!("running mean of {RUN_TRIPS} trips")),
         });
         p.legend = Legend::UpperLeft;
-        let mv: Vec<f64> = means.iter().map(|p| p.1).collect();
         let k = (mv.len() / 10).max(1);
         let first = mv.iter().take(k).sum::<f64>() / k.min(mv.len()).max(1) as f64;
         let last = mv.iter().rev().take(k).sum::<f64>() / k.min(mv.len()).max(1) as f64;

@@ -1,6 +1,9 @@
-//! The `risk` figure of stages 6-7: the combined risk R with the advisory and alarm thresholds
-//! and the events, and the per-mode risk R_m with the per-mode thresholds; also the risk axis
-//! and the level entries that the `comparison` figure shares.
+//! The `risk` figure of stages 6-7: the combined risk R with the advisory and alarm thresholds,
+//! the events and the start of the change the sequential decision holds; the per-mode risk R_m
+//! with the per-mode thresholds (brake as dots, so it shows where it runs on friction); and the
+//! drifts in physical units (Kd and friction in %, brake drag in N) with the Kd drift that
+//! holds R at the alarm level and the brake's physical limit ([`liftwatch::forecast`]). Also the
+//! risk axis and the level entries that the `comparison` figure shares.
 //!
 //! ```text
 //! R_k = γ·R_{k−1} + x_k·exp(κ·min(D_k, D_max))    combined, per trip k; R_m per mode alike
@@ -18,8 +21,12 @@ const MOTOR: usize = FaultMode::Motor as usize;
 const BRAKE: usize = FaultMode::Brake as usize;
 const FRICTION: usize = FaultMode::Friction as usize;
 
+use liftwatch::forecast::{drift_for_risk, physical_limit};
+use liftwatch::ingest::time::day_text;
+use liftwatch::risk::friction_reference;
+
 use super::{num, span_text, whole_line, Ctx, Section};
-use crate::plot::{colors::*, quantile, Axis, Dash, Figure, Legend, Mark, Panel};
+use crate::plot::{colors::*, quantile, robust_range, Axis, Dash, Figure, Legend, Mark, Panel};
 
 /// Ratio of the top of a risk panel to its lowest threshold above which the axis is
 /// logarithmic; the log axis starts this factor below the lowest threshold.
@@ -144,19 +151,103 @@ pub(super) fn risk(c: &Ctx) -> Section {
         ],
     );
     p1.marks.extend(event_lines(c));
+    p1.marks.extend(change_line(c));
     p1.marks.push(combined_line(c));
     p1.legend = Legend::UpperLeft;
+    let (pct, newton) = drift_panels(c);
     Section {
         figure: Figure {
             name: "risk".into(),
             width: 1200,
-            height: 860,
-            grid: (2, 1),
-            panels: vec![p1, modes_panel(c)],
+            height: 1500,
+            grid: (4, 1),
+            panels: vec![p1, modes_panel(c), pct, newton],
         },
         heading: "Risk over time".into(),
         text: risk_text(c),
     }
+}
+
+/// A vertical line where the change the sequential decision holds at the end began.
+fn change_line(c: &Ctx) -> Option<Mark> {
+    let since = c.inp.state.changed_since(&c.inp.model.risk)?;
+    Some(Mark::VLine {
+        x: c.whole.x(since),
+        color: BLUE,
+        label: Some(format!("change began ({})", day_text(since))),
+    })
+}
+
+/// The re-identified drifts in physical units: Kd and friction (%) with the Kd alarm-level
+/// drift, and the brake drag (N) with its physical limit.
+fn drift_panels(c: &Ctx) -> (Panel, Panel) {
+    let rows = c.inp.pinn;
+    let cfg = &c.inp.model.risk;
+    let t: Vec<f64> = rows.iter().map(|r| r.time).collect();
+    let kd: Vec<f64> = rows.iter().map(|r| r.kd_drift_pct).collect();
+    let fr: Vec<f64> = rows.iter().map(|r| r.friction_drift_pct).collect();
+    let br: Vec<f64> = rows.iter().map(|r| r.brake_drag_n).collect();
+    let x = || c.whole.axis(c.start, c.end);
+    let alarm_kd = 100.0 * drift_for_risk(cfg, MOTOR, cfg.alarm);
+    let (lo, hi) = robust_range(
+        &[kd.clone(), fr.clone()].concat(),
+        0.002,
+        0.998,
+        &[0.0, alarm_kd],
+    );
+    let mut pct = Panel::new(
+        "Drift of Kd and of friction from the healthy reference (re-identified, %)",
+        x(),
+        Axis::new(lo, hi, "drift (%)"),
+    );
+    pct.marks.push(Mark::HLine {
+        y: alarm_kd,
+        color: RED,
+        dash: Dash::Dashed,
+        label: Some(format!(
+            "Kd drift that holds R at the alarm level ({alarm_kd:+.1} %)"
+        )),
+    });
+    pct.marks.extend(change_line(c));
+    pct.marks.push(Mark::Line {
+        pts: whole_line(c, &t, &kd),
+        color: BLUE,
+        width: 3,
+        label: Some("Kd (drive)".into()),
+    });
+    pct.marks.push(Mark::Line {
+        pts: whole_line(c, &t, &fr),
+        color: GREEN,
+        width: 3,
+        label: Some("friction (guides)".into()),
+    });
+    pct.legend = Legend::UpperLeft;
+    pct.headroom = Some(0.3);
+    let f_c = friction_reference(&c.inp.model.hybrid).0;
+    let limit = f_c * physical_limit(BRAKE, &c.inp.model.hybrid.elevator, f_c);
+    let (lo, hi) = robust_range(&br, 0.002, 0.998, &[0.0, limit]);
+    let mut newton = Panel::new(
+        "Brake drag (re-identified, N)",
+        x(),
+        Axis::new(lo, hi, "brake drag (N)"),
+    );
+    newton.marks.push(Mark::HLine {
+        y: limit,
+        color: RED,
+        dash: Dash::Dashed,
+        label: Some(format!(
+            "physical limit {limit:.0} N (1 % of car + rated load weight)"
+        )),
+    });
+    newton.marks.push(Mark::Line {
+        pts: whole_line(c, &t, &br),
+        color: PURPLE,
+        width: 3,
+        label: Some("brake drag".into()),
+    });
+    newton.legend = Legend::UpperLeft;
+    newton.headroom = Some(0.3);
+    (pct, newton)
 }
 
 /// A vertical line per event, each level labelled once.
@@ -187,8 +278,8 @@ fn modes_panel(c: &Ctx) -> Panel {
     let t: Vec<f64> = rows.iter().map(|r| r.time).collect();
     let modes = [
         (MOTOR, "motor", BLUE),
-        (BRAKE, "brake", PURPLE),
         (FRICTION, "friction", GREEN),
+        (BRAKE, "brake", PURPLE),
     ];
     let per: Vec<Vec<f64>> = modes
         .iter()
@@ -234,11 +325,22 @@ fn modes_panel(c: &Ctx) -> Panel {
                 label: None,
             });
         }
-        p.marks.push(Mark::Line {
-            pts: whole_line(c, &t, y),
-            color: *color,
-            width: 3,
-            label: Some(name.to_string()),
+        let pts = whole_line(c, &t, y);
+        // Brake is drawn last as dots, so it stays visible where it runs on friction's line.
+        p.marks.push(if *m == BRAKE {
+            Mark::Dots {
+                pts,
+                color: *color,
+                radius: 3,
+                label: Some(format!("{name} (dots)")),
+            }
+        } else {
+            Mark::Line {
+                pts,
+                color: *color,
+                width: 3,
+                label: Some(name.to_string()),
+            }
         });
     }
     p.headroom = Some(RISK_HEADROOM);
@@ -323,7 +425,7 @@ mod tests {
         let c = Ctx::new(&inp);
         let s = risk(&c);
         assert_eq!(s.heading, "Risk over time");
-        assert_eq!(s.figure.panels.len(), 2);
+        assert_eq!(s.figure.panels.len(), 4);
         assert_drawn(&s, "risk R_m (1)");
     }
 }

@@ -22,6 +22,27 @@ const PARAM_W: u32 = 400;
 /// Height of a parameter panel (px).
 const PARAM_H: u32 = 380;
 
+/// A value below this share of its prior width is shown as zero: a positive parameter whose
+/// softplus map sits there (c_visc 2.3e-16 against a width of tens of N·s/m) is at its bound
+/// 0, and sixteen digits of nothing mean nothing.
+const AT_BOUND_SHARE: f64 = 1e-6;
+
+/// The parameters kept positive by the fit's softplus map (MODEL.md, Hybrid PINN).
+const POSITIVE: [&str; 6] = ["m0", "f_c", "c_visc", "kd", "ke", "alpha_down"];
+
+/// A parameter value for people: [`num`], or `≈ 0 (at its bound)` for a positive parameter
+/// pressed against zero.
+fn value_text(name: &str, value: f64, prior_sd: Option<f64>) -> String {
+    let width = prior_sd.unwrap_or(1.0).abs();
+    if value.abs() < AT_BOUND_SHARE * width {
+        if POSITIVE.contains(&name) {
+            return "≈ 0 (at its bound)".into();
+        }
+        return "≈ 0".into();
+    }
+    num(value)
+}
+
 /// The paper's symbol of a physical parameter named as in [`PhysParams::NAMES`].
 fn symbol(name: &str) -> &str {
     match name {
@@ -194,15 +215,15 @@ pub(super) fn parameters(c: &Ctx) -> Section {
         let value = final_theta.get(k).copied().unwrap_or(f64::NAN);
         let report = fit.parameters.iter().find(|r| r.name == name);
         let se = report.and_then(|r| r.std_error).unwrap_or(f64::NAN);
-        panels.push(parameter_panel(fit, k, name, unit, value, se));
+        let shown = value_text(name, value, report.and_then(|r| r.prior_sd));
+        panels.push(parameter_panel(fit, k, (name, unit), value, se, &shown));
         let by = match report {
             Some(r) if r.determined => "data",
             Some(_) => "prior (weakly identifiable)",
             None => "n/a",
         };
         rows_html.push(format!(
-            "<tr><td>{name}</td><td>{}</td><td>{}</td><td>{unit}</td><td>{by}</td></tr>",
-            num(value),
+            "<tr><td>{name}</td><td>{shown}</td><td>{}</td><td>{unit}</td><td>{by}</td></tr>",
             num(se)
         ));
     }
@@ -225,10 +246,10 @@ pub(super) fn parameters(c: &Ctx) -> Section {
 fn parameter_panel(
     fit: &FitSummary,
     k: usize,
-    name: &str,
-    unit: &str,
+    (name, unit): (&str, &str),
     value: f64,
     se: f64,
+    shown: &str,
 ) -> Panel {
     let (it, x0, x1) = iterations(&fit.history);
     let vals: Vec<f64> = fit
@@ -240,9 +261,9 @@ fn parameter_panel(
     let sym = symbol(name);
     let mut p = Panel::new(
         format!(
-            "{sym} = {}{}  ({name})",
-            num(value),
-            if unit == "1" {
+            "{sym} {}{shown}{}  ({name})",
+            if shown.starts_with('≈') { "" } else { "= " },
+            if unit == "1" || shown.starts_with('≈') {
                 String::new()
             } else {
                 format!(" {unit}")

@@ -106,9 +106,68 @@ pub fn parse_time(s: &str, form: &mut Option<TimeForm>) -> Result<f64, TimeError
     }
 }
 
+/// Times at or after this (s) are read as Unix time and shown as UTC dates: 1e8 s is
+/// 3 Mar 1973, and a relative clock (seconds since a logger or a simulation started) stays
+/// below it for its first three years.
+pub const CALENDAR_FROM_S: f64 = 1.0e8;
+
+/// True when `t` reads as Unix time ([`CALENDAR_FROM_S`]), so a date can be shown for it.
+pub fn is_calendar(t: f64) -> bool {
+    t.is_finite() && (CALENDAR_FROM_S..=MAX_ABS_TIME_S).contains(&t)
+}
+
+/// The UTC date and time of Unix time `t`, `None` for a relative clock.
+fn utc(t: f64) -> Option<OffsetDateTime> {
+    if !is_calendar(t) {
+        return None;
+    }
+    OffsetDateTime::from_unix_timestamp(t.floor() as i64).ok()
+}
+
+/// A day for people: `3 Mar 2026` (UTC) for Unix time, `day 12.4` of a relative clock.
+pub fn day_text(t: f64) -> String {
+    match utc(t) {
+        Some(d) => format!("{} {} {}", d.day(), month_abbrev(d.month()), d.year()),
+        None => format!("day {:.1}", t / 86_400.0),
+    }
+}
+
+/// An instant for people: `2026-03-03 14:05 UTC` for Unix time, `day 12.41 of the data
+/// clock` for a relative clock.
+pub fn instant_text(t: f64) -> String {
+    match utc(t) {
+        Some(d) => format!(
+            "{}-{:02}-{:02} {:02}:{:02} UTC",
+            d.year(),
+            u8::from(d.month()),
+            d.day(),
+            d.hour(),
+            d.minute()
+        ),
+        None => format!("day {:.2} of the data clock", t / 86_400.0),
+    }
+}
+
+fn month_abbrev(m: time::Month) -> &'static str {
+    const NAMES: [&str; 12] = [
+        "Jan", "Feb", "Mar", "Apr", "May", "Jun", "Jul", "Aug", "Sep", "Oct", "Nov", "Dec",
+    ];
+    NAMES[usize::from(u8::from(m)) - 1]
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn unix_times_read_as_utc_dates_and_a_relative_clock_as_days() {
+        let t = parse_rfc3339("2026-03-03T14:05:59Z").unwrap();
+        assert_eq!(day_text(t), "3 Mar 2026");
+        assert_eq!(instant_text(t), "2026-03-03 14:05 UTC");
+        assert_eq!(day_text(3.5 * 86_400.0), "day 3.5");
+        assert_eq!(instant_text(86_400.0), "day 1.00 of the data clock");
+        assert!(!is_calendar(f64::NAN));
+    }
 
     #[test]
     fn numeric_seconds_keep_their_fraction() {

@@ -230,7 +230,7 @@ pub(super) fn unpack(p: &[f64; 6]) -> [[f64; 3]; 3] {
 }
 
 /// Inverse of a symmetric positive-definite 3×3 matrix by Cholesky; `None` when it is not.
-pub(super) fn spd_inverse(p: &[f64; 6]) -> Option<[[f64; 3]; 3]> {
+pub(crate) fn spd_inverse(p: &[f64; 6]) -> Option<[[f64; 3]; 3]> {
     let a = unpack(p);
     let scale = (a[0][0] + a[1][1] + a[2][2]) / 3.0;
     if !(scale.is_finite() && scale > 0.0) {

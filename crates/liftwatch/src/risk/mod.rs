@@ -70,6 +70,7 @@ mod evidence;
 pub mod sequential;
 mod tracker;
 
+pub(crate) use evidence::spd_inverse;
 pub use evidence::{friction_reference, signature, trip_evidence, TripAccumulator, TripEvidence};
 pub use sequential::{Decision, Sequential, SequentialConfig};
 pub(crate) use tracker::excess;

@@ -241,6 +241,23 @@ impl RiskTracker {
         self.last
     }
 
+    /// The longest run of trips a CUSUM holds as changed while its G/h is at least the
+    /// release ratio (0 when none does, or without a sequential decision): where a change began.
+    pub fn held_window_trips(&self, cfg: &RiskConfig) -> u32 {
+        let Some(seq) = &cfg.sequential else {
+            return 0;
+        };
+        let mut longest = 0;
+        for (m, row) in self.seq.bank.iter().enumerate() {
+            for (j, c) in row.iter().enumerate() {
+                if c.g >= cfg.release_ratio * seq.h[m][j] {
+                    longest = longest.max(c.trips);
+                }
+            }
+        }
+        longest
+    }
+
     /// G of every CUSUM now, per mode and size (for calibration).
     pub fn cusum_g(&self) -> [[f64; super::sequential::N_SIZES]; N_MODES] {
         self.seq.g()

@@ -3,6 +3,7 @@ mod align;
 mod drive;
 mod evaluate;
 mod features;
+mod forecast;
 mod layers;
 mod monitor;
 mod sim;

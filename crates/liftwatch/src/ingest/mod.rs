@@ -332,8 +332,9 @@ impl IngestReport {
 /// [`Error::NoData`](crate::Error::NoData) if it is empty,
 /// [`Error::UnknownLayout`](crate::Error::UnknownLayout) if the header is neither layout.
 pub fn detect_layout(path: &Path) -> Result<Layout> {
-    let file = std::fs::File::open(path).map_err(|e| crate::Error::io(path, e))?;
-    Ok(self::csv::RowReader::new(file, path)?.layout())
+    let input = crate::input::Input::open(path)?;
+    let name = input.name().to_path_buf();
+    Ok(self::csv::RowReader::new(input, &name)?.layout())
 }
 
 #[cfg(test)]

@@ -209,6 +209,8 @@ pub fn align_reader<R: Read + Seek, S: SampleSink>(
     cfg.validate()?;
     let mut plan = None;
     let mut late_line = None;
+    // Measured by the pass-through attempt, kept through the passes that re-step.
+    let mut input_step = f64::NAN;
     // At most four passes: pass-through, re-step, restart for `current`, full sort.
     let mut pass = 0;
     loop {
@@ -234,8 +236,12 @@ pub fn align_reader<R: Read + Seek, S: SampleSink>(
                 sorted_pass(&mut rows, cfg, sink, has_current, &mut report)?
             }
         };
+        if report.input_step_s.is_finite() {
+            input_step = report.input_step_s;
+        }
         plan = Some(match outcome {
             Outcome::Done => {
+                report.input_step_s = input_step;
                 report.passes = pass;
                 report.late_line = late_line;
                 report.full_sort = matches!(p, Plan::Sorted { .. });

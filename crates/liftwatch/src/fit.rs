@@ -165,14 +165,14 @@ fn short_training_notes(report: &CalibrationReport, risk: &RiskConfig) -> Vec<St
     }
     vec![
         format!(
-            "short training: {:.1} h ({} healthy trips) of the {ENOUGH_TRAINING_DAYS:.0} days the calibration needs; its bootstrap resamples {} day(s), so the advisory threshold (R {:.1}) is only as wide as these hours' own wander",
+            "short training: {:.1} h ({} healthy trips) of the {ENOUGH_TRAINING_DAYS:.0} days the calibration needs; its bootstrap resamples {}, so the advisory threshold (R {:.1}) is only as wide as these hours' own wander",
             report.hours,
             report.trips,
-            if days < 1.0 { "less than one".to_string() } else { format!("{days:.1}") },
+            if days < 1.0 { "less than one day".to_string() } else { format!("{days:.1} days") },
             risk.advisory,
         ),
         format!(
-            "it cannot promise {} false advisories per year: days unlike these (weekends, other seasons' temperatures, other traffic) were never seen; refit on {ENOUGH_TRAINING_DAYS:.0} days or more of healthy data",
+            "it cannot promise its alarm budget of {} false advisories per elevator-year: days unlike these (weekends, other seasons' temperatures, other traffic) were never seen; refit on {ENOUGH_TRAINING_DAYS:.0} days or more of healthy data",
             report.target_false_advisories_per_year
         ),
     ]

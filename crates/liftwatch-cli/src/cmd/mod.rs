@@ -7,3 +7,5 @@ pub mod fit;
 pub mod monitor;
 pub mod report;
 pub mod simulate;
+pub mod step;
+pub mod ui;

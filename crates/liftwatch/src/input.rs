@@ -73,7 +73,8 @@ pub struct Input {
 
 enum Inner {
     File(File),
-    Gzip(MultiGzDecoder<BufReader<File>>, PathBuf),
+    /// Boxed: a decoder's state is several times the size of the other variants.
+    Gzip(Box<MultiGzDecoder<BufReader<File>>>, PathBuf),
     Stdin(Spool),
 }
 
@@ -96,7 +97,7 @@ impl Input {
         let file = File::open(path).map_err(|e| Error::io(path, e))?;
         let inner = match compression {
             Compression::None => Inner::File(file),
-            Compression::Gzip => Inner::Gzip(gunzip(file), path.to_path_buf()),
+            Compression::Gzip => Inner::Gzip(Box::new(gunzip(file)), path.to_path_buf()),
         };
         Ok(Input {
             name: path.to_path_buf(),
@@ -131,7 +132,7 @@ impl Seek for Input {
         match (&mut self.inner, pos) {
             (Inner::File(f), pos) => f.seek(pos),
             (Inner::Gzip(d, path), SeekFrom::Start(0)) => {
-                *d = gunzip(File::open(&*path)?);
+                **d = gunzip(File::open(&*path)?);
                 Ok(0)
             }
             (Inner::Stdin(s), SeekFrom::Start(0)) => {

@@ -3,6 +3,7 @@
 use clap::{Parser, Subcommand};
 
 use crate::cmd;
+use crate::Status;
 
 /// Physics-informed health monitoring of traction elevators.
 #[derive(Debug, Parser)]
@@ -35,17 +36,17 @@ pub enum Command {
 }
 
 impl Command {
-    /// Runs the chosen subcommand.
-    pub fn run(self) -> anyhow::Result<()> {
+    /// Runs the chosen subcommand; the status is [`Status::Ok`] but for `monitor --fail-on`.
+    pub fn run(self) -> anyhow::Result<Status> {
         match self {
-            Command::Demo(a) => cmd::demo::run(a),
-            Command::Simulate(a) => cmd::simulate::run(a),
-            Command::Align(a) => cmd::align::run(a),
-            Command::Fit(a) => cmd::fit::run(a),
+            Command::Demo(a) => cmd::demo::run(a).map(|()| Status::Ok),
+            Command::Simulate(a) => cmd::simulate::run(a).map(|()| Status::Ok),
+            Command::Align(a) => cmd::align::run(a).map(|()| Status::Ok),
+            Command::Fit(a) => cmd::fit::run(a).map(|()| Status::Ok),
             Command::Monitor(a) => cmd::monitor::run(a),
-            Command::Status(a) => cmd::status::run(a),
-            Command::Evaluate(a) => cmd::evaluate::run(a),
-            Command::Report(a) => cmd::report::run(a),
+            Command::Status(a) => cmd::status::run(a).map(|()| Status::Ok),
+            Command::Evaluate(a) => cmd::evaluate::run(a).map(|()| Status::Ok),
+            Command::Report(a) => cmd::report::run(a).map(|()| Status::Ok),
         }
     }
 }

@@ -14,7 +14,7 @@
 //! [`MAX_LINE_CHARS`] characters (the case directory counted as `DIR`), no `panicked`, no file
 //! changed and no temporary file (`.*.tmp*`) left.
 //!
-//! `-` for stdout is not implemented yet, so no case covers it.
+//! `-` for standard input and output is covered by `tests/scripts.rs`.
 
 use std::collections::BTreeMap;
 use std::os::unix::fs::FileTypeExt;
@@ -305,7 +305,6 @@ fn devices_fifos_and_symlinks_are_written_through() {
         .file_type()
         .is_fifo());
     assert_eq!(temps(&dir.0), Vec::<PathBuf>::new());
-    eprintln!("skip: `--out -` (stdout) is not implemented yet");
 }
 
 #[test]

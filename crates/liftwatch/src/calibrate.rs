@@ -44,6 +44,12 @@ const MIN_WINDOWS: f64 = 5.0;
 /// Seconds per year, for trip rates.
 const YEAR_S: f64 = 365.25 * 86_400.0;
 
+/// Days of healthy data a calibration needs to keep its promise: the bootstrap draws whole
+/// days, and a week holds every kind of day an elevator has (weekdays, a weekend, the daily
+/// thermal cycle of the winding each time). Shorter trainings are calibrated, and `fit` says
+/// what they cannot promise.
+pub const ENOUGH_TRAINING_DAYS: f64 = 7.0;
+
 /// Fewest usable healthy trips a calibration accepts.
 const MIN_HEALTHY_TRIPS: usize = 30;
 
@@ -100,6 +106,60 @@ impl Default for CalibrationSettings {
             alarm_factor: 4.0,
             alarm_z: 5.0,
         }
+    }
+}
+
+/// The advisory's bootstrap spans this many times the years in which the target allows one
+/// false advisory: 10 years at the default target of one a year, the margin [`calibrate`]
+/// describes.
+pub const YEARS_PER_ALLOWED_ADVISORY: f64 = 10.0;
+
+/// Fewest and most years a bootstrap simulates, whatever the target: below a year the
+/// maximum is no longer a yearly figure, above a century the fit takes minutes.
+const BOOTSTRAP_YEARS: (f64, f64) = (1.0, 100.0);
+
+impl CalibrationSettings {
+    /// The settings for a user's alarm budget: `per_year` false advisories per
+    /// elevator-year. The Lorden floor of the sequential thresholds takes the target as it is;
+    /// the bootstrap of R spans [`YEARS_PER_ALLOWED_ADVISORY`]/`per_year` years (1 to 100), so
+    /// its maximum keeps the same margin on the target.
+    pub fn for_target(per_year: f64) -> CalibrationSettings {
+        let years =
+            (YEARS_PER_ALLOWED_ADVISORY / per_year).clamp(BOOTSTRAP_YEARS.0, BOOTSTRAP_YEARS.1);
+        CalibrationSettings {
+            target_false_advisories_per_year: per_year,
+            years: if years.is_finite() {
+                years
+            } else {
+                BOOTSTRAP_YEARS.1
+            },
+            ..CalibrationSettings::default()
+        }
+    }
+
+    /// Checks the settings.
+    ///
+    /// # Errors
+    /// [`Error::InvalidConfig`] naming the first setting out of range.
+    pub fn validate(&self) -> Result<()> {
+        let check = |field, v: f64, lo: f64, hi: f64| {
+            if v.is_finite() && (lo..=hi).contains(&v) {
+                Ok(())
+            } else {
+                Err(Error::InvalidConfig {
+                    field,
+                    why: format!("{v} is outside {lo} to {hi}"),
+                })
+            }
+        };
+        check(
+            "false_advisories_per_year",
+            self.target_false_advisories_per_year,
+            0.001,
+            1000.0,
+        )?;
+        check("years", self.years, 0.1, 1000.0)?;
+        check("block_s", self.block_s, 60.0, 30.0 * 86_400.0)
     }
 }
 

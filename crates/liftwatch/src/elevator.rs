@@ -13,6 +13,10 @@ use crate::error::{Error, Result};
 /// Standard gravity (m/s²).
 pub const G: f64 = 9.81;
 
+/// Longest `name` or `id` (characters): a label for a screen, far below the model file's
+/// own string limit.
+pub const MAX_LABEL_CHARS: usize = 200;
+
 /// A traction elevator as described by its owner.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -35,6 +39,17 @@ pub struct Elevator {
     /// Typical floor height (m); default 3.0.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub floor_height_m: Option<f64>,
+    /// A name for people, any text (`"Lift A"`); carried into the model and the events.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub name: Option<String>,
+    /// An identifier for machines (an asset number); carried into the model and the events.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub id: Option<String>,
+    /// The local time of the site as a fixed UTC offset, `"+01:00"`, `"-05:30"` or `"UTC"`:
+    /// RFC 3339 times are written at it. No time-zone database is built in, so a name such as
+    /// `"Europe/Berlin"` is refused and summer time is not followed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub timezone: Option<String>,
 }
 
 impl Elevator {
@@ -48,6 +63,9 @@ impl Elevator {
             counterweight_ratio: None,
             rated_voltage_v: None,
             floor_height_m: None,
+            name: None,
+            id: None,
+            timezone: None,
         }
     }
 
@@ -94,6 +112,17 @@ impl Elevator {
                 s.push_str(&format!("{k} = {v:?}\n"));
             }
         }
+        for (k, v) in [
+            ("name", &self.name),
+            ("id", &self.id),
+            ("timezone", &self.timezone),
+        ] {
+            if let Some(v) = v {
+                // A JSON string is a TOML basic string: the same quotes and escapes.
+                let quoted = serde_json::to_string(v).expect("a string always serialises");
+                s.push_str(&format!("{k} = {quoted}\n"));
+            }
+        }
         s
     }
 
@@ -118,7 +147,38 @@ impl Elevator {
         if let Some(v) = self.floor_height_m {
             check("floor_height_m", v, 1.5, 20.0)?;
         }
+        for (k, v) in [("name", &self.name), ("id", &self.id)] {
+            if let Some(v) = v {
+                if v.chars().count() > MAX_LABEL_CHARS || v.chars().any(char::is_control) {
+                    return Err(format!(
+                        "`{k}` must be at most {MAX_LABEL_CHARS} characters without line breaks or control characters"
+                    ));
+                }
+            }
+        }
+        self.utc_offset_s()?;
         Ok(())
+    }
+
+    /// The site's UTC offset (s) from `timezone`; 0 (UTC) when it is not given.
+    ///
+    /// # Errors
+    /// A message naming `timezone` when it is neither `UTC`, `Z` nor `±HH:MM` within ±18 h.
+    pub fn utc_offset_s(&self) -> std::result::Result<i32, String> {
+        let Some(tz) = self.timezone.as_deref() else {
+            return Ok(0);
+        };
+        parse_utc_offset(tz).ok_or_else(|| {
+            format!(
+                "`timezone` `{}`: expected a fixed offset such as \"+01:00\" or \"UTC\" (no time-zone database is built in)",
+                tz.chars().take(40).collect::<String>()
+            )
+        })
+    }
+
+    /// The label of the elevator for people: `name`, else `id`, else none.
+    pub fn label(&self) -> Option<&str> {
+        self.name.as_deref().or(self.id.as_deref())
     }
 
     /// Empty car mass (kg).
@@ -155,6 +215,24 @@ impl Elevator {
     }
 }
 
+/// `UTC`, `Z`, `+HH:MM` or `-HH:MM` (within ±18 h, RFC 3339's range) as seconds east of UTC.
+fn parse_utc_offset(tz: &str) -> Option<i32> {
+    if tz.eq_ignore_ascii_case("utc") || tz == "Z" {
+        return Some(0);
+    }
+    let (sign, rest) = match tz.as_bytes().first()? {
+        b'+' => (1, &tz[1..]),
+        b'-' => (-1, &tz[1..]),
+        _ => return None,
+    };
+    let (h, m) = rest.split_once(':')?;
+    if h.len() != 2 || m.len() != 2 {
+        return None;
+    }
+    let (h, m): (i32, i32) = (h.parse().ok()?, m.parse().ok()?);
+    (h <= 18 && m < 60 && h * 60 + m <= 18 * 60).then_some(sign * (h * 3600 + m * 60))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -185,5 +263,35 @@ mod tests {
             "rated_load_kg = 1000.0\nrated_speed_mps = 1.0\nfloors = 8\nspeed = 3\n"
         )
         .is_err());
+    }
+
+    #[test]
+    fn a_name_id_and_fixed_offset_are_kept_and_round_trip() {
+        let text = "name = \"Lift A\"\nid = \"B-7/2\"\ntimezone = \"+01:00\"\nrated_load_kg = 1000.0\nrated_speed_mps = 1.75\nfloors = 26\n";
+        let e = Elevator::from_toml_str(text).unwrap();
+        assert_eq!(e.name.as_deref(), Some("Lift A"));
+        assert_eq!(e.label(), Some("Lift A"));
+        assert_eq!(e.utc_offset_s(), Ok(3600));
+        assert_eq!(Elevator::from_toml_str(&e.to_toml_string()).unwrap(), e);
+        for (tz, off) in [
+            ("UTC", Some(0)),
+            ("-05:30", Some(-19_800)),
+            ("+18:00", Some(64_800)),
+        ] {
+            assert_eq!(parse_utc_offset(tz), off, "{tz}");
+        }
+        for tz in ["Europe/Berlin", "+1:00", "+19:00", "01:00", ""] {
+            assert_eq!(parse_utc_offset(tz), None, "{tz}");
+        }
+        let berlin = text.replace("+01:00", "Europe/Berlin");
+        let err = Elevator::from_toml_str(&berlin).unwrap_err();
+        assert!(
+            err.contains("`timezone`") && err.contains("no time-zone database"),
+            "{err}"
+        );
+        let two_lines = text.replace("Lift A", "Lift\\nA");
+        assert!(Elevator::from_toml_str(&two_lines)
+            .unwrap_err()
+            .contains("`name`"));
     }
 }

@@ -39,6 +39,9 @@ struct ModelDocument {
     risk: RiskSection,
     train: TrainConfig,
     fit: FitSummary,
+    /// The aligned step of the training data (s); absent in files written before it was kept.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    step_s: Option<f64>,
 }
 
 /// The `risk` object of the file: the risk settings with the other stages' limits inside.
@@ -74,6 +77,7 @@ impl From<FittedModel> for ModelDocument {
             },
             train: m.train,
             fit: m.summary,
+            step_s: m.step_s,
         }
     }
 }
@@ -94,6 +98,7 @@ impl From<ModelDocument> for FittedModel {
             calibration: d.risk.calibration,
             train: d.train,
             summary: d.fit,
+            step_s: d.step_s,
         }
     }
 }
@@ -224,6 +229,9 @@ fn check(model: &FittedModel) -> std::result::Result<(), String> {
     model.features.validate().map_err(|e| e.to_string())?;
     model.risk.validate().map_err(|e| e.to_string())?;
     model.sensor.validate()?;
+    if let Some(step) = model.step_s {
+        check_range("step_s", step, 1e-3, 86_400.0)?;
+    }
     model.baseline.validate()
 }
 

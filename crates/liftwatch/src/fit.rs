@@ -12,7 +12,7 @@
 //! file form (DATA.md §5) is [`crate::file`].
 
 use crate::baseline::BaselineLimits;
-use crate::calibrate::{calibrate, CalibrationReport, CalibrationSettings};
+use crate::calibrate::{calibrate, CalibrationReport, CalibrationSettings, ENOUGH_TRAINING_DAYS};
 use crate::elevator::Elevator;
 use crate::error::Result;
 use crate::features::{FeatureConfig, Features};
@@ -42,6 +42,10 @@ pub struct FittedModel {
     pub train: TrainConfig,
     /// Standard errors, training history and warnings of the fit.
     pub summary: FitSummary,
+    /// Δ: the aligned step the model was fitted on (s). Features, residual scales and the
+    /// per-trip calibration hold only at this step; `None` in models written before it was
+    /// recorded.
+    pub step_s: Option<f64>,
 }
 
 /// Everything `fit` produces: the model, and the intermediate results a report shows.
@@ -79,6 +83,29 @@ pub fn fit(
     cfg: &TrainConfig,
     observer: &mut dyn FnMut(&TrainPoint),
 ) -> Result<FitOutcome> {
+    fit_with(
+        series,
+        elevator,
+        cfg,
+        &CalibrationSettings::default(),
+        observer,
+    )
+}
+
+/// [`fit`] with the calibration's settings given, e.g. another target of false advisories
+/// per year ([`CalibrationSettings::for_target`]).
+///
+/// # Errors
+/// As [`fit`], and [`Error::InvalidConfig`](crate::Error::InvalidConfig) for a target that is
+/// not a positive number.
+pub fn fit_with(
+    series: &AlignedSeries,
+    elevator: &Elevator,
+    cfg: &TrainConfig,
+    calibration: &CalibrationSettings,
+    observer: &mut dyn FnMut(&TrainPoint),
+) -> Result<FitOutcome> {
+    calibration.validate()?;
     let feature_cfg =
         crate::features::fit_load_cell(series, &FeatureConfig::for_elevator(elevator))?;
     let features = crate::features::extract(series, &feature_cfg);
@@ -113,7 +140,10 @@ pub fn fit(
         ));
     }
     let healthy_trips = trip_evidence(&hybrid, &features.rows);
-    let calibrated = calibrate(&healthy_trips, &CalibrationSettings::default())?;
+    let calibrated = calibrate(&healthy_trips, calibration)?;
+    summary
+        .warnings
+        .extend(short_training_notes(&calibrated.report, &calibrated.risk));
     let model = FittedModel {
         hybrid,
         features: feature_cfg,
@@ -123,12 +153,35 @@ pub fn fit(
         calibration: Some(calibrated.report),
         train: cfg.clone(),
         summary,
+        step_s: Some(series.step_s),
     };
     Ok(FitOutcome {
         model,
         features,
         healthy_trips,
     })
+}
+
+/// What a training shorter than [`ENOUGH_TRAINING_DAYS`] cannot promise, in two lines; none
+/// for a long enough one.
+fn short_training_notes(report: &CalibrationReport, risk: &RiskConfig) -> Vec<String> {
+    let days = report.hours / 24.0;
+    if days >= ENOUGH_TRAINING_DAYS {
+        return Vec::new();
+    }
+    vec![
+        format!(
+            "short training: {:.1} h ({} healthy trips) of the {ENOUGH_TRAINING_DAYS:.0} days the calibration needs; its bootstrap resamples {}, so the advisory threshold (R {:.1}) is only as wide as these hours' own wander",
+            report.hours,
+            report.trips,
+            if days < 1.0 { "less than one day".to_string() } else { format!("{days:.1} days") },
+            risk.advisory,
+        ),
+        format!(
+            "it cannot promise its alarm budget of {} false advisories per elevator-year: days unlike these (weekends, other seasons' temperatures, other traffic) were never seen; refit on {ENOUGH_TRAINING_DAYS:.0} days or more of healthy data",
+            report.target_false_advisories_per_year
+        ),
+    ]
 }
 
 impl FittedModel {
@@ -144,6 +197,7 @@ impl FittedModel {
             calibration: None,
             train: TrainConfig::default(),
             summary: FitSummary::default(),
+            step_s: None,
         }
     }
 }

@@ -38,7 +38,7 @@
 //! ```
 
 // Base: errors, numbers, the sample type, the elevator description, the fault-mode
-// vocabulary, the one writer.
+// vocabulary, the one reader and the one writer.
 pub mod error;
 pub mod exact;
 pub mod linalg;
@@ -48,6 +48,7 @@ pub mod sample;
 pub mod limits;
 pub mod elevator;
 pub mod mode;
+pub mod input;
 pub mod output;
 
 // The pipeline, in stage order. Every module imports only modules above it in this list

@@ -4,7 +4,9 @@
 //! regular file (or a new one):  write to a unique temporary file beside the target,
 //!                               flush, fsync, rename over the target, fsync the directory
 //! device, FIFO:                 written in place (a rename would replace /dev/null by a file)
+//! `-`:                          standard output, written in place
 //! symbolic link:                followed: its target is what gets replaced
+//! NAME.gz (AtomicFile::create_data only): gzip-compressed on the way, whichever of the above
 //! ```
 //!
 //! A failed or abandoned write removes its temporary file and leaves the target untouched, so a
@@ -16,7 +18,17 @@ use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 
+use flate2::write::GzEncoder;
+
 use crate::error::{Error, Result};
+use crate::input::{is_stdio, Compression};
+
+/// The name standard output has in messages.
+pub const STDOUT_NAME: &str = "<stdout>";
+
+/// gzip level of compressed outputs: 6, zlib's own default. Measured on 30 days of the
+/// monitor's per-second rows: 214 MB become 15.0 MB (14 times smaller) for 3.9 s more CPU.
+const GZIP_LEVEL: u32 = 6;
 
 /// Distinguishes the temporary files of one process (several outputs, several threads).
 static NEXT_TEMP: AtomicU64 = AtomicU64::new(0);
@@ -29,15 +41,109 @@ pub struct AtomicFile {
     target: PathBuf,
     /// The temporary file, `None` when the target is written in place (not a regular file).
     temp: Option<PathBuf>,
-    out: BufWriter<File>,
+    out: Out,
+}
+
+/// Where the bytes go: a file (temporary or in place) or standard output.
+#[derive(Debug)]
+enum Dest {
+    File(BufWriter<File>),
+    Stdout(BufWriter<io::Stdout>),
+}
+
+impl Write for Dest {
+    fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
+        match self {
+            Dest::File(f) => f.write(buf),
+            Dest::Stdout(o) => o.write(buf),
+        }
+    }
+
+    fn write_all(&mut self, buf: &[u8]) -> io::Result<()> {
+        match self {
+            Dest::File(f) => f.write_all(buf),
+            Dest::Stdout(o) => o.write_all(buf),
+        }
+    }
+
+    fn flush(&mut self) -> io::Result<()> {
+        match self {
+            Dest::File(f) => f.flush(),
+            Dest::Stdout(o) => o.flush(),
+        }
+    }
+}
+
+/// The destination, compressed on the way or not.
+#[derive(Debug)]
+enum Out {
+    Plain(Dest),
+    /// Buffered in front of the encoder: the CSV writers write field by field, and the encoder
+    /// runs its compressor on every write it gets.
+    Gzip(BufWriter<GzEncoder<Dest>>),
+    /// Taken apart after an error in the middle of a restart.
+    Gone,
+}
+
+impl Out {
+    fn new(dest: Dest, compression: Compression) -> Out {
+        match compression {
+            Compression::None => Out::Plain(dest),
+            Compression::Gzip => Out::Gzip(BufWriter::with_capacity(
+                1 << 16,
+                GzEncoder::new(dest, flate2::Compression::new(GZIP_LEVEL)),
+            )),
+        }
+    }
+
+    /// Ends the compressed stream (its trailer written) and returns the destination.
+    fn finish(self) -> io::Result<Dest> {
+        match self {
+            Out::Plain(d) => Ok(d),
+            Out::Gzip(g) => g.into_inner().map_err(|e| e.into_error())?.finish(),
+            Out::Gone => Err(io::Error::other("not written after an earlier error")),
+        }
+    }
+
+    fn writer(&mut self) -> io::Result<&mut dyn Write> {
+        match self {
+            Out::Plain(d) => Ok(d),
+            Out::Gzip(g) => Ok(g),
+            Out::Gone => Err(io::Error::other("not written after an earlier error")),
+        }
+    }
 }
 
 impl AtomicFile {
-    /// Starts writing `path`.
+    /// Starts writing `path` as it is: a model, a state, a JSON summary. `-` is standard output.
     ///
     /// # Errors
     /// [`Error::Io`] when the temporary file (or a device target) cannot be opened.
     pub fn create(path: &Path) -> Result<AtomicFile> {
+        AtomicFile::open(path, Compression::None)
+    }
+
+    /// Starts writing the data file `path` (aligned series, monitor rows, events), compressed
+    /// as its name says ([`Compression::of`]): `rows.csv.gz` is gzip. `-` is standard output,
+    /// uncompressed.
+    ///
+    /// # Errors
+    /// [`Error::Io`] for a `.zst` name, or as [`AtomicFile::create`].
+    pub fn create_data(path: &Path) -> Result<AtomicFile> {
+        AtomicFile::open(path, Compression::of(path)?)
+    }
+
+    fn open(path: &Path, compression: Compression) -> Result<AtomicFile> {
+        if is_stdio(path) {
+            return Ok(AtomicFile {
+                target: PathBuf::from(STDOUT_NAME),
+                temp: None,
+                out: Out::Plain(Dest::Stdout(BufWriter::with_capacity(
+                    1 << 16,
+                    io::stdout(),
+                ))),
+            });
+        }
         let target = resolve(path);
         let special = std::fs::metadata(&target).is_ok_and(|m| !m.is_file() && !m.is_dir());
         if special {
@@ -48,7 +154,7 @@ impl AtomicFile {
             return Ok(AtomicFile {
                 target,
                 temp: None,
-                out: BufWriter::new(file),
+                out: Out::new(Dest::File(BufWriter::new(file)), compression),
             });
         }
         sweep_stale(&target);
@@ -57,7 +163,10 @@ impl AtomicFile {
         Ok(AtomicFile {
             target,
             temp: Some(temp),
-            out: BufWriter::with_capacity(1 << 16, file),
+            out: Out::new(
+                Dest::File(BufWriter::with_capacity(1 << 16, file)),
+                compression,
+            ),
         })
     }
 
@@ -82,10 +191,20 @@ impl AtomicFile {
             ));
         }
         let result = (|| {
-            self.out.flush()?;
-            let f = self.out.get_mut();
-            f.set_len(0)?;
-            f.rewind()?;
+            let gzip = matches!(self.out, Out::Gzip(_));
+            let mut dest = std::mem::replace(&mut self.out, Out::Gone).finish()?;
+            dest.flush()?;
+            if let Dest::File(f) = &mut dest {
+                let f = f.get_mut();
+                f.set_len(0)?;
+                f.rewind()?;
+            }
+            let compression = if gzip {
+                Compression::Gzip
+            } else {
+                Compression::None
+            };
+            self.out = Out::new(dest, compression);
             Ok(())
         })();
         result.map_err(|e: io::Error| Error::io(&target, e))
@@ -98,11 +217,14 @@ impl AtomicFile {
     pub fn commit(mut self) -> Result<()> {
         let target = self.target.clone();
         let result = (|| {
-            self.out.flush()?;
+            let mut dest = std::mem::replace(&mut self.out, Out::Gone).finish()?;
+            dest.flush()?;
             let Some(temp) = self.temp.as_ref() else {
                 return Ok(());
             };
-            self.out.get_ref().sync_all()?;
+            if let Dest::File(f) = &dest {
+                f.get_ref().sync_all()?;
+            }
             std::fs::rename(temp, &self.target)?;
             self.temp = None;
             sync_dir(&self.target);
@@ -114,15 +236,15 @@ impl AtomicFile {
 
 impl Write for AtomicFile {
     fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
-        self.out.write(buf)
+        self.out.writer()?.write(buf)
     }
 
     fn write_all(&mut self, buf: &[u8]) -> io::Result<()> {
-        self.out.write_all(buf)
+        self.out.writer()?.write_all(buf)
     }
 
     fn flush(&mut self) -> io::Result<()> {
-        self.out.flush()
+        self.out.writer()?.flush()
     }
 }
 
@@ -263,10 +385,30 @@ impl<'a> FileArg<'a> {
 /// symbolic links and `..`): `--input X --out X` would replace the input, `--state` equal to
 /// `--out` would lose the state. Devices and FIFOs may repeat (`/dev/null` twice is fine).
 ///
+/// `-` is standard input for an input and standard output for an output; one of each at
+/// most.
+///
 /// # Errors
 /// A one-line message naming both flags.
 pub fn check_distinct(args: &[FileArg]) -> std::result::Result<(), String> {
+    for output in [false, true] {
+        let mut dashes = args
+            .iter()
+            .filter(|a| a.output == output && is_stdio(a.path));
+        if let (Some(a), Some(b)) = (dashes.next(), dashes.next()) {
+            return Err(format!(
+                "{} and {} are both `-`: only one {} of a command can be standard {}",
+                a.flag,
+                b.flag,
+                if output { "output" } else { "input" },
+                if output { "output" } else { "input" },
+            ));
+        }
+    }
     let key = |p: &Path| -> Option<PathBuf> {
+        if is_stdio(p) {
+            return None;
+        }
         let target = resolve(p);
         if std::fs::metadata(&target).is_ok_and(|m| !m.is_file()) {
             return None;
@@ -484,6 +626,12 @@ mod tests {
         assert!(check_distinct(&[arg("--out", null, true), arg("--events", null, true)]).is_ok());
         // Two inputs may be the same file.
         assert!(check_distinct(&[arg("--a", &input, false), arg("--b", &input, false)]).is_ok());
+        let dash = Path::new("-");
+        assert!(check_distinct(&[arg("--input", dash, false), arg("--out", dash, true)]).is_ok());
+        let err =
+            check_distinct(&[arg("--out", dash, true), arg("--events", dash, true)]).unwrap_err();
+        assert!(err.contains("--out and --events are both `-`"), "{err}");
+        assert!(check_distinct(&[arg("--a", dash, false), arg("--b", dash, false)]).is_err());
     }
 
     #[test]
@@ -516,6 +664,26 @@ mod tests {
             "keep"
         );
         assert_eq!(entries(&dir), ["report"]);
+    }
+
+    #[test]
+    fn a_gz_data_file_is_compressed_even_after_a_restart() {
+        use std::io::Read;
+        let dir = scratch("gz");
+        let path = dir.join("rows.csv.gz");
+        let mut f = AtomicFile::create_data(&path).unwrap();
+        f.write_all(b"first attempt\n").unwrap();
+        f.restart().unwrap();
+        f.write_all(b"time,risk\n1,0.5\n").unwrap();
+        f.commit().unwrap();
+        let mut text = String::new();
+        flate2::read::GzDecoder::new(File::open(&path).unwrap())
+            .read_to_string(&mut text)
+            .unwrap();
+        assert_eq!(text, "time,risk\n1,0.5\n");
+        assert_eq!(entries(&dir), ["rows.csv.gz"]);
+        write_atomic(&dir.join("model.json.gz"), b"{}").unwrap();
+        assert_eq!(std::fs::read(dir.join("model.json.gz")).unwrap(), b"{}");
     }
 
     #[test]

@@ -3,7 +3,8 @@
 //!
 //! The output is written through the library's one atomic writer: a temporary file beside
 //! `--out`, renamed over it only when alignment succeeded, so a failed run leaves no output
-//! file behind; a device or FIFO (`--out /dev/stdout`) is written in place.
+//! file behind; a device, a FIFO or `-` (standard output) is written in place. `--input -`
+//! reads standard input; a `.gz` name on either side is gzip.
 
 use std::path::PathBuf;
 
@@ -11,13 +12,16 @@ use anyhow::Context as _;
 use liftwatch::align::{align_file, AlignConfig, AlignedFileSink};
 use liftwatch::output::{check_distinct, FileArg};
 
+use super::ui::{ingest_json, named, warn, Ui, UiArgs};
+
 /// Flags of `liftwatch align`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// Telemetry to align: raw `time,signal,value` or an aligned CSV.
+    /// Telemetry to align: raw `time,signal,value` or an aligned CSV (`-`: stdin, `.gz`: gzip).
     #[arg(long)]
     pub input: PathBuf,
-    /// Aligned CSV to write (`time,speed,direction,voltage,load,door,floor[,current]`).
+    /// Aligned CSV to write (`time,speed,direction,voltage,load,door,floor[,current]`;
+    /// `-`: stdout, `.gz`: gzip).
     #[arg(long)]
     pub out: PathBuf,
     /// Uniform step of the output (s).
@@ -30,6 +34,9 @@ pub struct Args {
     /// make the whole file be sorted in memory.
     #[arg(long = "reorder-window", default_value_t = 600.0)]
     pub reorder_window: f64,
+    /// Summary: --quiet, --json.
+    #[command(flatten)]
+    pub ui: UiArgs,
 }
 
 /// The library error as one anyhow message. `Error::Io` already prints its source in
@@ -40,6 +47,7 @@ fn flat(err: liftwatch::Error) -> anyhow::Error {
 
 /// Runs `align`: ingest and align `--input`, write `--out`, one warning and one summary line.
 pub fn run(args: Args) -> anyhow::Result<()> {
+    let ui = Ui::new(args.ui, &[("--out", &args.out)])?;
     let cfg = AlignConfig::default()
         .with_step(args.step)
         .and_then(|c| c.with_gap_limit(args.gap_limit))
@@ -50,15 +58,21 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         FileArg::output("--out", &args.out),
     ])
     .map_err(anyhow::Error::msg)?;
-    let cannot_write = || format!("cannot write {}", args.out.display());
+    let out = named(&args.out, true);
+    let cannot_write = || format!("cannot write {out}");
     let mut sink = AlignedFileSink::create(&args.out)
         .map_err(flat)
         .with_context(cannot_write)?;
     let report = align_file(&args.input, &cfg, &mut sink).map_err(flat)?;
     sink.finish().map_err(flat).with_context(cannot_write)?;
     if let Some(w) = report.warning() {
-        eprintln!("warning: {}: {w}", args.input.display());
+        warn(&args.input, &w);
     }
-    eprintln!("{}: {}", args.out.display(), report.summary());
-    Ok(())
+    ui.say(format_args!("{out}: {}", report.summary()));
+    ui.json(&serde_json::json!({
+        "command": "align",
+        "out": out,
+        "step_s": cfg.step_s,
+        "input": ingest_json(&args.input, &report),
+    }))
 }

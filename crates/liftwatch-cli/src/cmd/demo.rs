@@ -174,23 +174,23 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
     }
 
-    println!();
-    print!(
+    eprintln!();
+    eprintln!(
         "{}",
         super::fit::summary(m, outcome.features.trips.len(), fitted)
     );
-    println!();
-    print!(
+    eprintln!();
+    eprint!(
         "{}",
         outcome_summary(&truth, &analysis.pinn, &analysis.threshold)
     );
-    println!("\nreport: {}", index.display());
-    println!(
+    eprintln!("\nreport: {}", index.display());
+    eprintln!(
         "model: {}   events: {}",
         model_path.display(),
         out.join("events.jsonl").display()
     );
-    println!("done in {:.0} s", started.elapsed().as_secs_f64());
+    eprintln!("done in {:.0} s", started.elapsed().as_secs_f64());
     Ok(())
 }
 

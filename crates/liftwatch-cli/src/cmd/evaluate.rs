@@ -2,14 +2,17 @@
 //! against the fixed-threshold baseline, a CUSUM and an EWMA chart over simulated elevators
 //! and degradations (paper, Sec. 5.3-5.4).
 //!
-//! Prints an aligned table on stdout, progress on stderr, and writes `evaluation.json` (every
-//! case, every metric, the calibrations) into `--out`.
+//! Prints an aligned table and progress on stderr (people; `--json` puts the summary on
+//! stdout), and writes `evaluation.json` (every case, every metric, the calibrations) into
+//! `--out`.
 
 use std::path::PathBuf;
 use std::time::Instant;
 
 use anyhow::Context;
 use liftwatch::evaluate::{run_suite, table, SuiteConfig};
+
+use super::ui::{Ui, UiArgs};
 
 /// Flags of `liftwatch evaluate`.
 #[derive(Debug, clap::Args)]
@@ -26,6 +29,9 @@ pub struct Args {
     /// Worker threads; the results do not depend on it.
     #[arg(long, default_value_t = 2)]
     pub threads: usize,
+    /// Summary: --quiet, --json.
+    #[command(flatten)]
+    pub ui: UiArgs,
 }
 
 /// Runs `evaluate`.
@@ -35,23 +41,32 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .with_context(|| format!("cannot create {}", args.out.display()))?;
     let mut cfg = SuiteConfig::new(args.seed, args.quick);
     cfg.threads = args.threads;
+    let ui = Ui::new(args.ui, &[])?;
     let clock = Instant::now();
-    eprintln!(
+    ui.say(format_args!(
         "evaluate: {} suite, seed {}, {} thread(s)",
         if args.quick { "quick" } else { "full" },
         args.seed,
         args.threads
-    );
-    let ev = run_suite(&cfg, &|line| eprintln!("evaluate: {line}")).context("evaluation")?;
-    print!("{}", table(&ev));
+    ));
+    let ev = run_suite(&cfg, &|line| ui.progress(format_args!("evaluate: {line}")))
+        .context("evaluation")?;
+    ui.progress_done();
+    ui.say(table(&ev).trim_end());
     let path = args.out.join("evaluation.json");
     let json = serde_json::to_vec_pretty(&ev).context("serialising the evaluation")?;
     liftwatch::output::write_atomic(&path, &json)?;
-    eprintln!(
-        "evaluate: {} cases in {:.0} s, wrote {}",
+    let seconds = clock.elapsed().as_secs_f64();
+    ui.say(format_args!(
+        "evaluate: {} cases in {seconds:.0} s, wrote {}",
         ev.cases.len(),
-        clock.elapsed().as_secs_f64(),
         path.display()
-    );
-    Ok(())
+    ));
+    ui.json(&serde_json::json!({
+        "command": "evaluate",
+        "out": path.display().to_string(),
+        "cases": ev.cases.len(),
+        "seconds": seconds,
+        "aggregates": serde_json::to_value(&ev.aggregates)?,
+    }))
 }

@@ -5,21 +5,24 @@ use std::time::Instant;
 
 use anyhow::Context;
 use liftwatch::align::{read_series, AlignConfig};
+use liftwatch::calibrate::CalibrationSettings;
 use liftwatch::model::train::{Optimizer, TrainPoint};
 use liftwatch::model::TrainConfig;
 use liftwatch::Elevator;
 use liftwatch::{file, fit};
 
+use super::ui::{finite, ingest_json, named, warn, Ui, UiArgs};
+
 /// Flags of `liftwatch fit`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// Healthy telemetry, raw or aligned.
+    /// Healthy telemetry, raw or aligned (`-`: stdin, `.gz`: gzip).
     #[arg(long)]
     pub input: PathBuf,
     /// Elevator description (TOML).
     #[arg(long)]
     pub elevator: PathBuf,
-    /// Where to write the model (JSON).
+    /// Where to write the model (JSON; `-`: stdout).
     #[arg(long)]
     pub out: PathBuf,
     /// Optimiser of the hybrid stage: lbfgs (default) or adam (the paper's schedule).
@@ -37,9 +40,13 @@ pub struct Args {
     /// Alignment step (s) for raw input.
     #[arg(long, default_value_t = 1.0)]
     pub step: f64,
-    /// Print no progress lines.
-    #[arg(long)]
-    pub quiet: bool,
+    /// The alarm budget: false advisories per elevator-year the calibration aims at (stored
+    /// in the model).
+    #[arg(long = "false-advisories-per-year", default_value_t = 1.0)]
+    pub false_advisories_per_year: f64,
+    /// Summary: --quiet, --json.
+    #[command(flatten)]
+    pub ui: UiArgs,
 }
 
 /// The optimiser choice on the command line.
@@ -53,12 +60,54 @@ pub enum OptimizerArg {
 
 /// Runs `fit`.
 pub fn run(args: Args) -> anyhow::Result<()> {
+    let ui = Ui::new(args.ui, &[("--out", &args.out)])?;
+    liftwatch::output::check_distinct(&[
+        liftwatch::output::FileArg::input("--input", &args.input),
+        liftwatch::output::FileArg::input("--elevator", &args.elevator),
+        liftwatch::output::FileArg::output("--out", &args.out),
+    ])
+    .map_err(anyhow::Error::msg)?;
+    let calibration = CalibrationSettings::for_target(args.false_advisories_per_year);
+    calibration
+        .validate()
+        .context("--false-advisories-per-year")?;
     let elevator = Elevator::from_toml_file(&args.elevator)?;
     let align = AlignConfig::default().with_step(args.step)?;
     let (series, report) = read_series(&args.input, &align)?;
     if let Some(w) = report.warning() {
-        eprintln!("warning: {w}");
+        warn(&args.input, &w);
     }
+    let cfg = train_config(&args);
+    let input = named(&args.input, false);
+    ui.say(format_args!(
+        "fit: {} samples ({:.1} h) from {input}",
+        series.len(),
+        series.duration_s() / 3600.0,
+    ));
+    let started = Instant::now();
+    let mut progress = |p: &TrainPoint| {
+        ui.progress(format_args!(
+            "  stage {} iteration {:>5}  loss {:.4e}  rms r_U {:.2} V  rms r_F {:.0} N",
+            p.stage, p.iteration, p.loss, p.rms_u_v, p.rms_f_n
+        ));
+    };
+    let outcome = fit::fit_with(&series, &elevator, &cfg, &calibration, &mut progress)
+        .with_context(|| format!("fitting {input}"))?;
+    ui.progress_done();
+    let seconds = started.elapsed().as_secs_f64();
+    file::save(&args.out, &outcome.model)?;
+    let out = named(&args.out, true);
+    ui.say(summary(
+        &outcome.model,
+        outcome.features.trips.len(),
+        seconds,
+    ));
+    ui.say(format_args!("wrote {out}"));
+    ui.json(&json_summary(&outcome, &args, &report, seconds))
+}
+
+/// The training settings from the flags.
+fn train_config(args: &Args) -> TrainConfig {
     let (optimizer, epochs) = match args.optimizer {
         OptimizerArg::Lbfgs => (
             Optimizer::Lbfgs,
@@ -66,7 +115,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         ),
         OptimizerArg::Adam => (Optimizer::Adam, args.epochs.unwrap_or(20_000)),
     };
-    let cfg = TrainConfig {
+    TrainConfig {
         optimizer,
         epochs,
         learning_rate: args.learning_rate,
@@ -77,33 +126,52 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             50
         },
         ..TrainConfig::default()
-    };
-    eprintln!(
-        "fit: {} samples ({:.1} h) from {}",
-        series.len(),
-        series.duration_s() / 3600.0,
-        args.input.display()
-    );
-    let started = Instant::now();
-    let quiet = args.quiet;
-    let mut progress = |p: &TrainPoint| {
-        if !quiet {
-            eprintln!(
-                "  stage {} iteration {:>5}  loss {:.4e}  rms r_U {:.2} V  rms r_F {:.0} N",
-                p.stage, p.iteration, p.loss, p.rms_u_v, p.rms_f_n
-            );
-        }
-    };
-    let outcome = fit::fit(&series, &elevator, &cfg, &mut progress)
-        .with_context(|| format!("fitting {}", args.input.display()))?;
-    let seconds = started.elapsed().as_secs_f64();
-    file::save(&args.out, &outcome.model)?;
-    print!(
-        "{}",
-        summary(&outcome.model, outcome.features.trips.len(), seconds)
-    );
-    println!("wrote {}", args.out.display());
-    Ok(())
+    }
+}
+
+/// The `--json` object of a fit.
+fn json_summary(
+    outcome: &fit::FitOutcome,
+    args: &Args,
+    report: &liftwatch::ingest::IngestReport,
+    seconds: f64,
+) -> serde_json::Value {
+    let m = &outcome.model;
+    let f = &m.summary;
+    let parameters: serde_json::Map<String, serde_json::Value> = f
+        .parameters
+        .iter()
+        .map(|r| {
+            let v = serde_json::json!({
+                "value": finite(r.value),
+                "std_error": r.std_error.and_then(finite),
+                "unit": r.unit,
+                "decided_by": if r.determined { "data" } else { "prior" },
+            });
+            (r.name.to_string(), v)
+        })
+        .collect();
+    let e = &m.hybrid.elevator;
+    serde_json::json!({
+        "command": "fit",
+        "out": named(&args.out, true),
+        "elevator": {"name": e.name, "id": e.id, "timezone": e.timezone},
+        "input": ingest_json(&args.input, report),
+        "step_s": m.step_s,
+        "seconds": seconds,
+        "moving_samples": f.moving_samples,
+        "standstill_samples": f.standstill_samples,
+        "trips": outcome.features.trips.len(),
+        "rms_r_voltage_v": finite(f.rms_u_v),
+        "rms_r_force_n": finite(f.rms_f_n),
+        "parameters": parameters,
+        "sigma_u_v": m.hybrid.scales.sigma_u_v,
+        "sigma_f_n": m.hybrid.scales.sigma_f_n,
+        "advisory": m.risk.advisory,
+        "alarm": m.risk.alarm,
+        "calibration": m.calibration,
+        "notes": f.warnings,
+    })
 }
 
 /// The on-screen summary of a fit: parameters with standard errors, warnings, calibration.
@@ -147,5 +215,14 @@ pub fn summary(m: &fit::FittedModel, trips: usize, seconds: f64) -> String {
         "healthy scales: σ_U {:.2} V, σ_F {:.0} N; risk thresholds: advisory {:.3}, alarm {:.3}",
         m.hybrid.scales.sigma_u_v, m.hybrid.scales.sigma_f_n, m.risk.advisory, m.risk.alarm
     );
-    s
+    if let Some(c) = &m.calibration {
+        let _ = writeln!(
+            s,
+            "alarm budget: at most {} false advisories per elevator-year targeted, {:.2} in an independent bootstrap of {} years",
+            c.target_false_advisories_per_year,
+            c.validated_false_advisories_per_year,
+            c.years_simulated
+        );
+    }
+    s.trim_end().to_string()
 }

@@ -8,3 +8,5 @@ pub mod monitor;
 pub mod report;
 pub mod simulate;
 pub mod status;
+pub mod step;
+pub mod ui;

@@ -14,6 +14,9 @@ use liftwatch::monitor::Analysis;
 use liftwatch::output::{AtomicDir, FileArg};
 use liftwatch_report::{write_report, ReportInputs};
 
+use super::step::{check_input_step, model_step};
+use super::ui::{named, Ui, UiArgs};
+
 /// Flags of `liftwatch report`.
 #[derive(Debug, clap::Args)]
 #[command(
@@ -23,16 +26,27 @@ pub struct Args {
     /// Model file written by `fit`.
     #[arg(long)]
     pub model: PathBuf,
-    /// Telemetry to report on, raw `time,signal,value` or aligned.
+    /// Telemetry to report on, raw `time,signal,value` or aligned (`-`: stdin, `.gz`: gzip).
     #[arg(long)]
     pub input: PathBuf,
     /// Output directory (created if missing): figures as SVG and PNG, and index.html.
     #[arg(long)]
     pub out: PathBuf,
+    /// Alignment step (s); default the model's, and another one is refused.
+    #[arg(long)]
+    pub step: Option<f64>,
+    /// Summary: --quiet, --json.
+    #[command(flatten)]
+    pub ui: UiArgs,
 }
 
-/// Runs `report` and prints the path of `index.html`.
+/// Runs `report` and names `index.html` (on stderr, or in the `--json` object on stdout).
 pub fn run(args: Args) -> anyhow::Result<()> {
+    anyhow::ensure!(
+        !liftwatch::input::is_stdio(&args.out),
+        "--out cannot be `-`: a report is a directory of files"
+    );
+    let ui = Ui::new(args.ui, &[])?;
     liftwatch::output::check_distinct(&[
         FileArg::input("--model", &args.model),
         FileArg::input("--input", &args.input),
@@ -40,25 +54,33 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     ])
     .map_err(anyhow::Error::msg)?;
     let model = file::load(&args.model).context("cannot use the model")?;
-    let (series, ingest) = read_series(&args.input, &AlignConfig::default())
-        .with_context(|| format!("cannot read {}", args.input.display()))?;
+    let (step, note) = model_step(&model, args.step)?;
+    if let Some(n) = note {
+        eprintln!("{n}"); // about the numbers themselves: shown even with --quiet or --json
+    }
+    let input = named(&args.input, false);
+    let (series, ingest) = read_series(&args.input, &AlignConfig::default().with_step(step)?)
+        .with_context(|| format!("cannot read {input}"))?;
+    check_input_step(step, &ingest, &input)?;
     if ingest.bad_rows > 0 {
-        eprintln!(
-            "warning: {}: skipped {} bad rows",
-            args.input.display(),
-            ingest.bad_rows
+        super::ui::warn(
+            &args.input,
+            &format!("skipped {} bad rows", ingest.bad_rows),
         );
     }
-    eprintln!(
-        "report: {} samples from {}",
-        series.len(),
-        args.input.display()
-    );
+    ui.say(format_args!(
+        "report: {} samples from {input}",
+        series.len()
+    ));
     let analysis = Analysis::run(&model, &series);
-    let source = args.input.file_name().map_or_else(
-        || args.input.display().to_string(),
-        |n| n.to_string_lossy().into_owned(),
-    );
+    let source = if liftwatch::input::is_stdio(&args.input) {
+        input.clone()
+    } else {
+        args.input.file_name().map_or_else(
+            || args.input.display().to_string(),
+            |n| n.to_string_lossy().into_owned(),
+        )
+    };
     // Written into a temporary directory and moved in at the end: a failure (a full disk) leaves
     // no half-written figure behind.
     let cannot_write = || format!("cannot write the report to {}", args.out.display());
@@ -69,6 +91,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     )
     .with_context(cannot_write)?;
     dir.commit().with_context(cannot_write)?;
-    println!("{}", args.out.join("index.html").display());
-    Ok(())
+    let index = args.out.join("index.html").display().to_string();
+    ui.say(&index);
+    ui.json(&serde_json::json!({
+        "command": "report",
+        "index": index,
+        "samples": series.len(),
+        "step_s": step,
+        "events": analysis.events.len(),
+    }))
 }

@@ -7,8 +7,11 @@
 use std::path::PathBuf;
 
 use anyhow::Context;
-use liftwatch::sim::{self, parse_scenario, truth_name, Ramp, Scenario, SensorFault, SimConfig};
+use liftwatch::mode::FaultMode;
+use liftwatch::sim::{self, truth_name, Ramp, Scenario, SensorFault, SimConfig};
 use liftwatch::Elevator;
+
+use super::ui::{Ui, UiArgs};
 
 /// Flags of `liftwatch simulate`.
 #[derive(Debug, clap::Args)]
@@ -19,9 +22,9 @@ pub struct Args {
     /// Simulated span in days (fractions allowed).
     #[arg(long, default_value_t = 7.0)]
     pub days: f64,
-    /// Machine degradation: healthy, motor, brake or friction.
-    #[arg(long, default_value = "healthy")]
-    pub scenario: String,
+    /// Machine degradation.
+    #[arg(long, value_enum, default_value_t = ScenarioArg::Healthy)]
+    pub scenario: ScenarioArg,
     /// Seed: the same seed gives the same elevator and telemetry.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
@@ -40,15 +43,15 @@ pub struct Args {
     /// When full severity is reached (days from the start); default the end of the span.
     #[arg(long)]
     pub full_days: Option<f64>,
-    /// Growth of the degradation: step, linear or exponential.
-    #[arg(long, default_value = "linear")]
-    pub ramp: String,
+    /// Growth of the degradation.
+    #[arg(long, value_enum, default_value_t = RampArg::Linear)]
+    pub ramp: RampArg,
     /// Severity at full, as a multiple of the mode's default effect.
     #[arg(long, default_value_t = 1.0)]
     pub severity: f64,
-    /// Sensor fault: none, load-drift (2 %/day from the onset) or stuck-speed (1 h at the onset).
-    #[arg(long, default_value = "none")]
-    pub sensor_fault: String,
+    /// Sensor fault from the onset.
+    #[arg(long, value_enum, default_value_t = SensorFaultArg::None)]
+    pub sensor_fault: SensorFaultArg,
     /// Sensor dropouts per day and signal (each 1-15 min); 0 disables them.
     #[arg(long, default_value_t = 0.2)]
     pub dropouts_per_day: f64,
@@ -58,6 +61,44 @@ pub struct Args {
     /// Traffic intensity multiplier.
     #[arg(long, default_value_t = 1.0)]
     pub traffic: f64,
+    /// Summary: --quiet, --json.
+    #[command(flatten)]
+    pub ui: UiArgs,
+}
+
+/// `--scenario`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum ScenarioArg {
+    /// No degradation.
+    Healthy,
+    /// Drive: Kd +10 %.
+    Motor,
+    /// Brake drag in downward and decelerating travel.
+    Brake,
+    /// Coulomb and viscous friction +25 % in both directions.
+    Friction,
+}
+
+/// `--ramp`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum RampArg {
+    /// Full severity at the onset.
+    Step,
+    /// Linear growth to full severity.
+    Linear,
+    /// Slow start, accelerating growth.
+    Exponential,
+}
+
+/// `--sensor-fault`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum SensorFaultArg {
+    /// Sensors healthy.
+    None,
+    /// The load cell drifts 2 %/day from the onset.
+    LoadDrift,
+    /// The speed reading sticks for 1 h at the onset.
+    StuckSpeed,
 }
 
 /// Runs `simulate`.
@@ -72,8 +113,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     cfg.traffic_scale = args.traffic;
     cfg.start_s = args.start_hour * 3600.0;
     let span = cfg.duration_s();
-    let mode = parse_scenario(&args.scenario)?;
-    let ramp: Ramp = args.ramp.parse()?;
+    let mode = match args.scenario {
+        ScenarioArg::Healthy => None,
+        ScenarioArg::Motor => Some(FaultMode::Motor),
+        ScenarioArg::Brake => Some(FaultMode::Brake),
+        ScenarioArg::Friction => Some(FaultMode::Friction),
+    };
+    let ramp = match args.ramp {
+        RampArg::Step => Ramp::Step,
+        RampArg::Linear => Ramp::Linear,
+        RampArg::Exponential => Ramp::Exponential,
+    };
     let onset = cfg.start_s + args.onset_days.map_or(0.4 * span, |d| d * 86_400.0);
     // An explicit --full-days before the onset is an error; the default follows a late onset.
     let full = match args.full_days {
@@ -84,32 +134,26 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Some(mode) => Scenario::new(mode, onset, ramp, full, args.severity)?,
         None => Scenario::healthy(),
     };
-    cfg.sensor_fault = match args.sensor_fault.as_str() {
-        "none" => None,
-        "load-drift" => Some(SensorFault::LoadDrift {
+    cfg.sensor_fault = match args.sensor_fault {
+        SensorFaultArg::None => None,
+        SensorFaultArg::LoadDrift => Some(SensorFault::LoadDrift {
             onset_s: onset,
             pct_per_day: 2.0,
         }),
-        "stuck-speed" => Some(SensorFault::StuckSpeed {
+        SensorFaultArg::StuckSpeed => Some(SensorFault::StuckSpeed {
             onset_s: onset,
             duration_s: 3600.0,
         }),
-        other => anyhow::bail!(
-            "--sensor-fault `{other}` is not known, expected none, load-drift or stuck-speed"
-        ),
     };
     cfg.validate()?;
-    let long = args.days >= 2.0;
+    let ui = Ui::new(args.ui, &[])?;
     let days = args.days;
-    let mut progress = |done: f64| {
-        if long {
-            eprintln!("simulate: day {done:.0} of {days}");
-        }
-    };
+    let mut progress = |done: f64| ui.progress(format_args!("simulate: day {done:.0} of {days}"));
     let truth = sim::write_dir(&cfg, &args.out, &mut progress)
         .with_context(|| format!("simulating into {}", args.out.display()))?;
+    ui.progress_done();
     let s = &truth.summary;
-    println!(
+    ui.say(format_args!(
         "simulated {} days ({} scenario, seed {}): {} trips, {} raw rows, {} aligned rows; wrote {} in {}",
         s.days,
         truth_name(mode),
@@ -119,6 +163,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         s.truth_rows,
         sim::OUTPUT_FILES.join(", "),
         args.out.display()
-    );
-    Ok(())
+    ));
+    ui.json(&serde_json::json!({
+        "command": "simulate",
+        "out": args.out.display().to_string(),
+        "files": sim::OUTPUT_FILES,
+        "days": s.days,
+        "scenario": truth_name(mode),
+        "seed": args.seed,
+        "trips": s.trips,
+        "raw_rows": s.raw_rows,
+        "aligned_rows": s.truth_rows,
+    }))
 }

@@ -48,7 +48,6 @@ mod passes;
 mod sink;
 mod writer;
 
-use std::fs::File;
 use std::io::{Read, Seek, SeekFrom};
 use std::path::Path;
 
@@ -57,6 +56,7 @@ use serde::{Deserialize, Serialize};
 use crate::error::{Error, Result};
 use crate::ingest::csv::RowReader;
 use crate::ingest::{IngestReport, Layout};
+use crate::input::Input;
 use crate::sample::AlignedSeries;
 use passes::{pass_through, sorted_pass, stream_pass, Outcome, Plan};
 
@@ -209,6 +209,8 @@ pub fn align_reader<R: Read + Seek, S: SampleSink>(
     cfg.validate()?;
     let mut plan = None;
     let mut late_line = None;
+    // Measured by the pass-through attempt, kept through the passes that re-step.
+    let mut input_step = f64::NAN;
     // At most four passes: pass-through, re-step, restart for `current`, full sort.
     let mut pass = 0;
     loop {
@@ -234,8 +236,12 @@ pub fn align_reader<R: Read + Seek, S: SampleSink>(
                 sorted_pass(&mut rows, cfg, sink, has_current, &mut report)?
             }
         };
+        if report.input_step_s.is_finite() {
+            input_step = report.input_step_s;
+        }
         plan = Some(match outcome {
             Outcome::Done => {
+                report.input_step_s = input_step;
                 report.passes = pass;
                 report.late_line = late_line;
                 report.full_sort = matches!(p, Plan::Sorted { .. });
@@ -259,6 +265,7 @@ pub fn align_reader<R: Read + Seek, S: SampleSink>(
 }
 
 /// Aligns the telemetry file at `path`, streaming samples to `sink`; see [`align_reader`].
+/// `path` is opened by [`Input::open`]: `-` is standard input, a `.gz` name is decompressed.
 ///
 /// # Errors
 /// As [`align_reader`]; a missing file is [`Error::Io`].
@@ -267,8 +274,9 @@ pub fn align_file<S: SampleSink>(
     cfg: &AlignConfig,
     sink: &mut S,
 ) -> Result<IngestReport, S::Error> {
-    let file = File::open(path).map_err(|e| Error::io(path, e))?;
-    align_reader(file, path, cfg, sink)
+    let input = Input::open(path)?;
+    let name = input.name().to_path_buf();
+    align_reader(input, &name, cfg, sink)
 }
 
 /// Reads and aligns the telemetry file at `path` (either layout) into memory.

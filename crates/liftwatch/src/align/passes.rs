@@ -126,13 +126,19 @@ pub(super) fn pass_through<R: Read, S: SampleSink>(
     let (mut first, mut prev) = (f64::NAN, f64::NAN);
     let mut outcome = Outcome::Done;
     let (mut samples, mut with_gaps) = (0u64, 0u64);
+    let mut input_step = f64::NAN;
     rows.for_each_row::<S::Error>(report, |s, _| {
         if prev.is_nan() {
             first = s.time;
             sink.start(has_current)?;
-        } else if (s.time - prev - cfg.step_s).abs() > tolerance {
-            outcome = Outcome::NonUniform;
-            return Ok(ControlFlow::Break(()));
+        } else {
+            if samples == 1 {
+                input_step = s.time - first;
+            }
+            if (s.time - prev - cfg.step_s).abs() > tolerance {
+                outcome = Outcome::NonUniform;
+                return Ok(ControlFlow::Break(()));
+            }
         }
         if s.time - first > max_span(cfg.step_s) {
             return Err(span_error(&path, first, s.time, cfg.step_s).into());
@@ -145,6 +151,7 @@ pub(super) fn pass_through<R: Read, S: SampleSink>(
     })?;
     report.samples = samples;
     report.samples_with_gaps = with_gaps;
+    report.input_step_s = input_step;
     if samples > 0 {
         report.time_range = (first, prev);
     }

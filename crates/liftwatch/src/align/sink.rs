@@ -118,7 +118,7 @@ impl AlignedFileSink {
     /// [`Error::Io`] naming `path`.
     pub fn create(path: &Path) -> Result<Self> {
         Ok(AlignedFileSink {
-            state: FileState::Fresh(AtomicFile::create(path)?),
+            state: FileState::Fresh(AtomicFile::create_data(path)?),
         })
     }
 

@@ -109,7 +109,7 @@ pub fn write_aligned<W: Write>(out: W, samples: &[Sample]) -> io::Result<()> {
 /// # Errors
 /// [`Error::Io`] naming `path`.
 pub fn write_aligned_file(path: &Path, samples: &[Sample]) -> Result<()> {
-    let mut file = AtomicFile::create(path)?;
+    let mut file = AtomicFile::create_data(path)?;
     write_aligned(&mut file, samples).map_err(|e| Error::io(path, e))?;
     file.commit()
 }

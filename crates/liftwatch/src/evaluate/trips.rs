@@ -136,6 +136,7 @@ mod tests {
             friction_drift_pct: f64::NAN,
             brake_drag_n: f64::NAN,
             trip,
+            trip_end: None,
         };
         let mut g = TripGrouper::new(2.0);
         let mut trips = Vec::new();

@@ -21,7 +21,7 @@ use crate::exact;
 ///
 /// A trip cut by a gap (missing speed, a time jump, the end of the data) is not reported; its
 /// rows keep the index, so reported indices can skip numbers.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Trip {
     /// Index of the trip, counted from 0 in the order the trips start.
     pub index: u32,

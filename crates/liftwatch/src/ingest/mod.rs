@@ -189,6 +189,10 @@ pub struct IngestReport {
     pub samples: u64,
     /// Samples with at least one of the six core signals missing.
     pub samples_with_gaps: u64,
+    /// Aligned layout: the step of the input as written, its first two rows apart (s); NaN
+    /// for raw input or a single row. A caller can refuse data of another step than a
+    /// model's before its re-stepped samples are used.
+    pub input_step_s: f64,
 }
 
 impl IngestReport {
@@ -214,6 +218,7 @@ impl IngestReport {
             time_range: (f64::NAN, f64::NAN),
             samples: 0,
             samples_with_gaps: 0,
+            input_step_s: f64::NAN,
         }
     }
 
@@ -332,8 +337,9 @@ impl IngestReport {
 /// [`Error::NoData`](crate::Error::NoData) if it is empty,
 /// [`Error::UnknownLayout`](crate::Error::UnknownLayout) if the header is neither layout.
 pub fn detect_layout(path: &Path) -> Result<Layout> {
-    let file = std::fs::File::open(path).map_err(|e| crate::Error::io(path, e))?;
-    Ok(self::csv::RowReader::new(file, path)?.layout())
+    let input = crate::input::Input::open(path)?;
+    let name = input.name().to_path_buf();
+    Ok(self::csv::RowReader::new(input, &name)?.layout())
 }
 
 #[cfg(test)]

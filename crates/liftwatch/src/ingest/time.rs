@@ -155,6 +155,46 @@ fn month_abbrev(m: time::Month) -> &'static str {
     NAMES[usize::from(u8::from(m)) - 1]
 }
 
+/// Writes `t` (seconds since the Unix epoch) as an RFC 3339 instant at the UTC offset
+/// `offset_s` (`Z` for 0): whole seconds as `2026-03-01T09:00:00+01:00`, a fraction to the
+/// millisecond as `...T09:00:00.250+01:00`. The inverse of [`parse_rfc3339`] to 1 ms.
+pub fn format_rfc3339(t: f64, offset_s: i32) -> String {
+    let ms = (t * 1000.0).round() as i64 + i64::from(offset_s) * 1000;
+    let (secs, milli) = (ms.div_euclid(1000), ms.rem_euclid(1000));
+    let (days, sod) = (secs.div_euclid(86_400), secs.rem_euclid(86_400));
+    let (y, m, d) = civil_from_days(days);
+    let mut s = format!(
+        "{y:04}-{m:02}-{d:02}T{:02}:{:02}:{:02}",
+        sod / 3600,
+        sod / 60 % 60,
+        sod % 60
+    );
+    if milli != 0 {
+        s.push_str(&format!(".{milli:03}"));
+    }
+    if offset_s == 0 {
+        s.push('Z');
+    } else {
+        let a = offset_s.unsigned_abs();
+        let sign = if offset_s < 0 { '-' } else { '+' };
+        s.push_str(&format!("{sign}{:02}:{:02}", a / 3600, a / 60 % 60));
+    }
+    s
+}
+
+/// Proleptic Gregorian date of a day count since 1970-01-01 (H. Hinnant's `civil_from_days`).
+fn civil_from_days(z: i64) -> (i64, i64, i64) {
+    let z = z + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z.rem_euclid(146_097);
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let d = doy - (153 * mp + 2) / 5 + 1;
+    let m = if mp < 10 { mp + 3 } else { mp - 9 };
+    (yoe + era * 400 + i64::from(m <= 2), m, d)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -227,5 +267,21 @@ mod tests {
             Err(TimeError::OtherForm(TimeForm::Rfc3339))
         );
         assert_eq!(parse_time("1e300", &mut form), Err(TimeError::OutOfRange));
+    }
+
+    #[test]
+    fn rfc3339_out_reads_back_as_the_same_instant() {
+        assert_eq!(format_rfc3339(0.0, 0), "1970-01-01T00:00:00Z");
+        let z = parse_rfc3339("2026-03-01T08:00:00.250Z").unwrap();
+        assert_eq!(format_rfc3339(z, 0), "2026-03-01T08:00:00.250Z");
+        assert_eq!(format_rfc3339(z, 3600), "2026-03-01T09:00:00.250+01:00");
+        assert_eq!(format_rfc3339(z, -19_800), "2026-03-01T02:30:00.250-05:30");
+        for t in [-1e9, -0.5, 951_782_400.0, 4_107_542_399.0, 1.7e9 + 0.125] {
+            for off in [0, 3600, -36_000] {
+                let back = parse_rfc3339(&format_rfc3339(t, off)).unwrap();
+                assert!((back - t).abs() < 1e-6, "{t} {off}: {back}");
+            }
+        }
+        assert_eq!(format_rfc3339(951_782_400.0, 0), "2000-02-29T00:00:00Z");
     }
 }

@@ -17,7 +17,9 @@ use liftwatch::align::{align_file, read_series, AlignConfig, SampleSink};
 use liftwatch::features::FeatureConfig;
 use liftwatch::fit::FittedModel;
 use liftwatch::model::{HybridModel, PhysParams, ResidualNet, ResidualScales};
-use liftwatch::monitor::{self, Method, Monitor, MonitorRow, MonitorState, RowWriter};
+use liftwatch::monitor::{
+    self, Method, Monitor, MonitorRow, MonitorState, RowWriter, TimeFormat, TripRowWriter,
+};
 use liftwatch::sim::{simulate, RawCsvWriter, SensorFault, SimConfig};
 use liftwatch::{Elevator, Sample};
 
@@ -147,12 +149,22 @@ impl MonitorTester {
     }
 }
 
+/// The per-second rows, then the per-trip rows: a trip cut by a resume must come out whole.
 fn csv(rows: &[MonitorRow]) -> String {
     let mut w = RowWriter::new(Vec::new()).expect("memory is writable");
+    let mut t = TripRowWriter::new(Vec::new(), TimeFormat::Epoch).expect("memory is writable");
     for r in rows {
         w.write(r).expect("memory is writable");
+        t.write(r).expect("memory is writable");
     }
-    String::from_utf8(w.into_inner().expect("memory is writable")).expect("CSV is UTF-8")
+    let trips = t.into_inner().expect("memory is writable");
+    assert!(
+        trips.iter().filter(|&&b| b == b'\n').count() > 2,
+        "the series must hold trips for the per-trip rows to be compared"
+    );
+    let mut out = w.into_inner().expect("memory is writable");
+    out.extend(trips);
+    String::from_utf8(out).expect("CSV is UTF-8")
 }
 
 fn events(rows: &[MonitorRow]) -> Vec<String> {

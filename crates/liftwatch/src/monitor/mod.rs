@@ -30,7 +30,8 @@
 //! (a stuck cell) or a channel missing for long while the others report raises the `sensor`
 //! advisory directly; so does a majority of implausible recent trips.
 
-use std::io::Write;
+mod rows;
+
 use std::path::Path;
 
 use serde::{Deserialize, Serialize};
@@ -46,6 +47,9 @@ use crate::residual::{PredictionCache, Residuals};
 use crate::risk::{friction_reference, RiskTracker, TripAccumulator};
 use crate::sample::Sample;
 use crate::sensor::SensorCheck;
+use rows::TripSums;
+
+pub use rows::{RowWriter, TimeFormat, TripRowWriter, TripSummary, CSV_HEADER, TRIP_CSV_HEADER};
 
 // Indices of the per-mode arrays, in the order of `crate::mode::MACHINE_MODES`.
 const MOTOR: usize = FaultMode::Motor as usize;
@@ -54,10 +58,6 @@ const FRICTION: usize = FaultMode::Friction as usize;
 
 /// Version of the monitor state document.
 pub const STATE_VERSION: u32 = 1;
-
-/// The DATA.md §4 columns, in order, then the extra columns of this build.
-pub const CSV_HEADER: &str =
-    "time,r_voltage,r_force,risk,risk_motor,risk_brake,risk_friction,level,e,kd_drift_pct,friction_drift_pct,brake_drag_n";
 
 /// Which method turns residuals into levels.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -118,6 +118,9 @@ pub struct MonitorRow {
     /// The features stage's trip index of this sample, if moving ([`FeatureRow::trip`]); not
     /// written to the CSV.
     pub trip: Option<u32>,
+    /// Set at the row where a trip is reported: the trip and its mean residuals (the rows
+    /// of [`TripRowWriter`]).
+    pub trip_end: Option<TripSummary>,
 }
 
 /// Runs the streaming monitor of `method` over a whole series with no saved state: one row
@@ -169,65 +172,6 @@ impl Analysis {
     }
 }
 
-/// Writes monitor rows as CSV with [`CSV_HEADER`]; empty fields for `NaN`.
-pub struct RowWriter<W: Write> {
-    out: W,
-}
-
-impl<W: Write> RowWriter<W> {
-    /// Writes the header.
-    ///
-    /// # Errors
-    /// The writer's I/O error.
-    pub fn new(mut out: W) -> std::io::Result<Self> {
-        writeln!(out, "{CSV_HEADER}")?;
-        Ok(RowWriter { out })
-    }
-
-    /// Writes one row.
-    ///
-    /// # Errors
-    /// The writer's I/O error.
-    pub fn write(&mut self, r: &MonitorRow) -> std::io::Result<()> {
-        let w = &mut self.out;
-        for x in [
-            r.time,
-            r.r_voltage,
-            r.r_force,
-            r.risk,
-            r.risk_motor,
-            r.risk_brake,
-            r.risk_friction,
-        ] {
-            write_num(w, x)?;
-            w.write_all(b",")?;
-        }
-        w.write_all(r.level.as_str().as_bytes())?;
-        for x in [r.e, r.kd_drift_pct, r.friction_drift_pct, r.brake_drag_n] {
-            w.write_all(b",")?;
-            write_num(w, x)?;
-        }
-        w.write_all(b"\n")
-    }
-
-    /// Flushes and returns the writer.
-    ///
-    /// # Errors
-    /// The writer's I/O error.
-    pub fn into_inner(mut self) -> std::io::Result<W> {
-        self.out.flush()?;
-        Ok(self.out)
-    }
-}
-
-fn write_num<W: Write>(w: &mut W, x: f64) -> std::io::Result<()> {
-    if x.is_finite() {
-        write!(w, "{x}")
-    } else {
-        Ok(())
-    }
-}
-
 /// FNV-1a over the model's JSON: the identity a state records.
 pub fn model_fingerprint(model: &FittedModel) -> String {
     let json = serde_json::to_vec(model).expect("a model of numbers and names always serialises");
@@ -256,6 +200,9 @@ pub struct MonitorState {
     sensor: SensorCheck,
     baseline: Baseline,
     episode_mode: FaultMode,
+    /// Residual sums of the trip in progress; states written before it start empty.
+    #[serde(default)]
+    trip_sums: TripSums,
     /// Samples seen.
     pub samples: u64,
     /// Time of the last sample seen (s), NaN before the first: input at or before it was
@@ -389,6 +336,7 @@ impl Monitor {
             sensor: SensorCheck::new(),
             baseline: Baseline::default(),
             episode_mode: FaultMode::Unknown,
+            trip_sums: TripSums::default(),
             samples: 0,
             last_time: f64::NAN,
             trips: 0,
@@ -494,6 +442,10 @@ impl Monitor {
         if let (Some(p), true) = (pred, x.s != 0 && x.trip.is_some()) {
             st.trip.push(model, self.friction, x, &p, &res);
         }
+        if let Some(i) = x.trip {
+            st.trip_sums.push(i, res.r_u, res.r_f, res.e);
+        }
+        let summary = ended.and_then(|t| st.trip_sums.finish(&t));
         if let Some(t) = ended {
             self.end_trip(&t);
         }
@@ -503,10 +455,13 @@ impl Monitor {
             .sensor
             .verdict(&self.model.sensor, x.time, st.alarm.sensor());
         st.alarm.set_sensor(sensor);
-        match st.method {
+        let mut row = match st.method {
             Method::Pinn => self.pinn_row(x, &res, before),
             Method::Threshold => self.threshold_row(x, &res),
-        }
+        };
+        let mode = (row.level > Level::Normal).then_some(self.st.episode_mode);
+        row.trip_end = summary.map(|s| TripSummary { mode, ..s });
+        row
     }
 
     /// Closes the evidence of a reported trip and feeds the risk stage when plausible.
@@ -573,6 +528,7 @@ impl Monitor {
             friction_drift_pct: 100.0 * a.drift[FRICTION],
             brake_drag_n: self.friction.0 * a.drift[BRAKE],
             trip: x.trip,
+            trip_end: None,
         }
     }
 
@@ -599,6 +555,7 @@ impl Monitor {
             friction_drift_pct: f64::NAN,
             brake_drag_n: f64::NAN,
             trip: x.trip,
+            trip_end: None,
         }
     }
 }
@@ -750,10 +707,11 @@ mod tests {
             friction_drift_pct: f64::NAN,
             brake_drag_n: f64::NAN,
             trip: Some(3),
+            trip_end: None,
         };
         assert_eq!(
             csv(&[r]).lines().nth(1).unwrap(),
-            "1,,,0.5,0,0,0,normal,,1.5,,"
+            "1,,,0.500,0.000,0.000,0.000,normal,,1.500,,"
         );
     }
 }

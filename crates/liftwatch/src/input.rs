@@ -1,0 +1,254 @@
+//! The one way liftwatch opens telemetry to read, the counterpart of [`crate::output`].
+//!
+//! ```text
+//! -            standard input, copied to an unlinked spool file while it is read
+//! NAME.gz      gzip, decompressed while it is read (several members allowed, as `cat a.gz b.gz`)
+//! NAME.zst     refused: this build has no zstd (see the README's Dependencies)
+//! anything     read as it is
+//! ```
+//!
+//! Alignment may read its input a second time (a row later than the reorder window, a
+//! `current` column appearing late, an aligned file at another step), so every input is
+//! [`Seek`]able back to its start: a gzip file is reopened and decompressed again, and
+//! standard input is replayed from its spool. The spool costs one copy of the piped bytes on
+//! the temporary directory's disk, never memory; it is unlinked as soon as it is created, so
+//! nothing is left behind by a kill.
+
+use std::fs::File;
+use std::io::{self, BufReader, Read, Seek, SeekFrom, Write};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use flate2::read::MultiGzDecoder;
+
+use crate::error::{Error, Result};
+
+/// The file argument that means standard input (for an input) or standard output (for an
+/// output).
+pub const STDIO: &str = "-";
+
+/// The name standard input has in messages.
+pub const STDIN_NAME: &str = "<stdin>";
+
+/// Distinguishes the spool files of one process.
+static NEXT_SPOOL: AtomicU64 = AtomicU64::new(0);
+
+/// True when `path` is the command-line `-`.
+pub fn is_stdio(path: &Path) -> bool {
+    path.as_os_str() == STDIO
+}
+
+/// How a data file is compressed, told by its name's extension.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Compression {
+    /// Plain text.
+    None,
+    /// gzip (`.gz`), RFC 1952.
+    Gzip,
+}
+
+impl Compression {
+    /// The compression the name of `path` asks for; `-` is always plain.
+    ///
+    /// # Errors
+    /// [`Error::Io`] naming `path` for `.zst`, which this build cannot read or write.
+    pub fn of(path: &Path) -> Result<Compression> {
+        match path.extension().and_then(|e| e.to_str()) {
+            Some(e) if e.eq_ignore_ascii_case("gz") => Ok(Compression::Gzip),
+            Some(e) if e.eq_ignore_ascii_case("zst") => Err(Error::io(
+                path,
+                io::Error::other("zstd (.zst) is not supported by this build, use .gz or plain"),
+            )),
+            _ => Ok(Compression::None),
+        }
+    }
+}
+
+/// An opened telemetry input: read it, and seek back to its start to read it again.
+pub struct Input {
+    /// The name in messages: the path, or [`STDIN_NAME`].
+    name: PathBuf,
+    inner: Inner,
+}
+
+enum Inner {
+    File(File),
+    /// Boxed: a decoder's state is several times the size of the other variants.
+    Gzip(Box<MultiGzDecoder<BufReader<File>>>, PathBuf),
+    Stdin(Spool),
+}
+
+impl Input {
+    /// Opens `path`: `-` is standard input, a `.gz` name is decompressed.
+    ///
+    /// # Errors
+    /// [`Error::Io`] naming the file when it cannot be opened, when it is `.zst`, or when
+    /// standard input's spool file cannot be created.
+    pub fn open(path: &Path) -> Result<Input> {
+        if is_stdio(path) {
+            let name = PathBuf::from(STDIN_NAME);
+            let spool = Spool::new().map_err(|e| Error::io(&name, e))?;
+            return Ok(Input {
+                name,
+                inner: Inner::Stdin(spool),
+            });
+        }
+        let compression = Compression::of(path)?;
+        let file = File::open(path).map_err(|e| Error::io(path, e))?;
+        let inner = match compression {
+            Compression::None => Inner::File(file),
+            Compression::Gzip => Inner::Gzip(Box::new(gunzip(file)), path.to_path_buf()),
+        };
+        Ok(Input {
+            name: path.to_path_buf(),
+            inner,
+        })
+    }
+
+    /// The input's name in messages: its path, or [`STDIN_NAME`].
+    pub fn name(&self) -> &Path {
+        &self.name
+    }
+}
+
+fn gunzip(file: File) -> MultiGzDecoder<BufReader<File>> {
+    MultiGzDecoder::new(BufReader::with_capacity(1 << 16, file))
+}
+
+impl Read for Input {
+    fn read(&mut self, buf: &mut [u8]) -> io::Result<usize> {
+        match &mut self.inner {
+            Inner::File(f) => f.read(buf),
+            Inner::Gzip(d, _) => d.read(buf),
+            Inner::Stdin(s) => s.read(buf),
+        }
+    }
+}
+
+impl Seek for Input {
+    /// A plain file seeks anywhere; gzip and standard input only back to the start, which is
+    /// all alignment asks.
+    fn seek(&mut self, pos: SeekFrom) -> io::Result<u64> {
+        match (&mut self.inner, pos) {
+            (Inner::File(f), pos) => f.seek(pos),
+            (Inner::Gzip(d, path), SeekFrom::Start(0)) => {
+                **d = gunzip(File::open(&*path)?);
+                Ok(0)
+            }
+            (Inner::Stdin(s), SeekFrom::Start(0)) => {
+                s.pos = 0;
+                Ok(0)
+            }
+            _ => Err(io::Error::new(
+                io::ErrorKind::Unsupported,
+                "a compressed or piped input can only be read again from its start",
+            )),
+        }
+    }
+}
+
+/// Standard input, copied to a spool file as it is read, so that it can be read again.
+struct Spool {
+    stdin: io::Stdin,
+    file: File,
+    /// Bytes copied to the spool so far.
+    len: u64,
+    /// Where the reader is: below `len` it reads the spool, at `len` standard input.
+    pos: u64,
+    /// The spool file's own cursor, to skip needless seeks.
+    cursor: u64,
+}
+
+impl Spool {
+    fn new() -> io::Result<Spool> {
+        let n = NEXT_SPOOL.fetch_add(1, Ordering::Relaxed);
+        let path =
+            std::env::temp_dir().join(format!(".liftwatch-stdin.{}.{n}.spool", std::process::id()));
+        let file = std::fs::OpenOptions::new()
+            .read(true)
+            .write(true)
+            .create_new(true)
+            .open(&path)?;
+        // Unlinked at once: the open handle keeps the bytes, and no exit path leaves the file.
+        std::fs::remove_file(&path)?;
+        Ok(Spool {
+            stdin: io::stdin(),
+            file,
+            len: 0,
+            pos: 0,
+            cursor: 0,
+        })
+    }
+
+    fn seek_file(&mut self, to: u64) -> io::Result<()> {
+        if self.cursor != to {
+            self.file.seek(SeekFrom::Start(to))?;
+            self.cursor = to;
+        }
+        Ok(())
+    }
+}
+
+impl Read for Spool {
+    fn read(&mut self, buf: &mut [u8]) -> io::Result<usize> {
+        if self.pos < self.len {
+            self.seek_file(self.pos)?;
+            let want = usize::try_from(self.len - self.pos).map_or(buf.len(), |r| r.min(buf.len()));
+            let n = self.file.read(&mut buf[..want])?;
+            self.pos += n as u64;
+            self.cursor += n as u64;
+            return Ok(n);
+        }
+        let n = self.stdin.lock().read(buf)?;
+        if n > 0 {
+            self.seek_file(self.len)?;
+            self.file.write_all(&buf[..n])?;
+            self.len += n as u64;
+            self.pos = self.len;
+            self.cursor = self.len;
+        }
+        Ok(n)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scratch(name: &str) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!("lw-input-{}-{name}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        dir
+    }
+
+    #[test]
+    fn a_gzip_file_reads_and_rewinds_to_its_text() {
+        let dir = scratch("gz");
+        let path = dir.join("raw.csv.gz");
+        let text = b"time,signal,value\n0,speed,0\n1,speed,1\n";
+        let mut enc = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::default());
+        enc.write_all(text).unwrap();
+        std::fs::write(&path, enc.finish().unwrap()).unwrap();
+        let mut input = Input::open(&path).unwrap();
+        let mut got = Vec::new();
+        input.read_to_end(&mut got).unwrap();
+        assert_eq!(got, text);
+        input.seek(SeekFrom::Start(0)).unwrap();
+        got.clear();
+        input.read_to_end(&mut got).unwrap();
+        assert_eq!(got, text, "read again from the start");
+        assert!(input.seek(SeekFrom::Start(3)).is_err());
+    }
+
+    #[test]
+    fn zst_is_refused_naming_the_file() {
+        let err = Input::open(Path::new("log.csv.zst")).err().unwrap();
+        assert!(err.to_string().contains("log.csv.zst: zstd"), "{err}");
+        assert_eq!(
+            Compression::of(Path::new("a.CSV.GZ")).unwrap(),
+            Compression::Gzip
+        );
+        assert_eq!(Compression::of(Path::new("-")).unwrap(), Compression::None);
+    }
+}

@@ -310,6 +310,28 @@ fn only_one_dash_per_direction() {
         ],
         "--json and `--out -` both write standard output",
     );
+    fails(&["simulate", "--out", "-"], "--out cannot be `-`");
+    fails(
+        &[
+            "report",
+            "--model",
+            s(&fx.model),
+            "--input",
+            "-",
+            "--out",
+            "-",
+        ],
+        "--out cannot be `-`",
+    );
+    let state = ["--out", "r.csv", "--state", "-"];
+    fails(
+        &[
+            &["monitor", "--model", s(&fx.model), "--input", s(&fx.raw)],
+            &state[..],
+        ]
+        .concat(),
+        "--state cannot be `-`",
+    );
 }
 
 #[test]

@@ -37,6 +37,10 @@ pub struct Args {
 /// Runs `evaluate`.
 pub fn run(args: Args) -> anyhow::Result<()> {
     anyhow::ensure!(args.threads >= 1, "--threads must be at least 1");
+    anyhow::ensure!(
+        !liftwatch::input::is_stdio(&args.out),
+        "--out cannot be `-`: evaluate writes evaluation.json into a directory (--json puts the summary on stdout)"
+    );
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create {}", args.out.display()))?;
     let mut cfg = SuiteConfig::new(args.seed, args.quick);

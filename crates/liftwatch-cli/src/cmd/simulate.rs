@@ -103,6 +103,10 @@ pub enum SensorFaultArg {
 
 /// Runs `simulate`.
 pub fn run(args: Args) -> anyhow::Result<()> {
+    anyhow::ensure!(
+        !liftwatch::input::is_stdio(&args.out),
+        "--out cannot be `-`: simulate writes a directory of four files"
+    );
     let elevator = Elevator::new(args.rated_load, args.rated_speed, args.floors);
     elevator
         .validate()

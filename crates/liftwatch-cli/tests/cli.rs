@@ -233,3 +233,52 @@ fn status_refuses_a_missing_or_foreign_state_in_one_line() {
     let run = liftwatch(&["status", "--model", s(&garbage), "--state", s(&garbage)]);
     assert!(!run.ok && run.stderr.lines().count() == 1, "{}", run.stderr);
 }
+
+#[test]
+fn simulate_can_switch_the_drive_off_at_rest_and_use_the_papers_load_cell() {
+    let dir = Dir::new("drive-off");
+    let out = dir.0.join("sim");
+    let run = liftwatch(&[
+        "simulate",
+        "--out",
+        s(&out),
+        "--days",
+        "0.2",
+        "--seed",
+        "3",
+        "--drive-at-rest",
+        "off",
+        "--load-cell",
+        "constant-k",
+        "--quiet",
+    ]);
+    assert!(run.ok, "{}", run.stderr);
+    let truth: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("truth.json")).unwrap()).unwrap();
+    assert_eq!(truth["plant"]["drive_at_rest"]["kind"], "off");
+    assert_eq!(truth["plant"]["load_cell_load_gain"], 0.0);
+    // Between trips the voltage reads the sensor's offset, not U0 (1-3 % of rated voltage).
+    let rest: Vec<f64> = std::fs::read_to_string(out.join("aligned.csv"))
+        .unwrap()
+        .lines()
+        .skip(1)
+        .filter_map(|l| {
+            let f: Vec<f64> = l
+                .split(',')
+                .map(|x| x.parse().unwrap_or(f64::NAN))
+                .collect();
+            (f[1] == 0.0 && f[2] == 0.0 && f[3].is_finite()).then_some(f[3])
+        })
+        .collect();
+    assert!(rest.len() > 100, "{} standstill rows", rest.len());
+    let mut sorted = rest.clone();
+    sorted.sort_by(f64::total_cmp);
+    let median = sorted[sorted.len() / 2];
+    assert!(median < 2.0, "median standstill voltage {median} V");
+    let bad = liftwatch(&["simulate", "--out", s(&out), "--drive-at-rest", "sometimes"]);
+    assert!(
+        !bad.ok && bad.stderr.contains("sometimes"),
+        "{}",
+        bad.stderr
+    );
+}

@@ -61,9 +61,38 @@ pub struct Args {
     /// Traffic intensity multiplier.
     #[arg(long, default_value_t = 1.0)]
     pub traffic: f64,
+    /// The drive between trips: energised (the voltage shows U0) or off (the sensor's 0.3 V
+    /// offset, with pre-torque while the brake lifts and drops).
+    #[arg(long, value_enum, default_value_t = DriveArg::Energised)]
+    pub drive_at_rest: DriveArg,
+    /// The load cell: under the platform (feels the passengers' inertia) or the paper's
+    /// constant-k cell (feels a fixed mass only).
+    #[arg(long, value_enum, default_value_t = LoadCellArg::Platform)]
+    pub load_cell: LoadCellArg,
     /// Summary: --quiet, --json.
     #[command(flatten)]
     pub ui: UiArgs,
+}
+
+/// `--drive-at-rest`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum DriveArg {
+    /// Energised between trips.
+    Energised,
+    /// Switched off between trips.
+    Off,
+}
+
+/// What the voltage sensor reads with the drive off (V): an offset of a few tenths of a volt.
+const DRIVE_OFF_IDLE_V: f64 = 0.3;
+
+/// `--load-cell`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum LoadCellArg {
+    /// Under the platform: load gain 1.
+    Platform,
+    /// The paper's constant-k cell: load gain 0.
+    ConstantK,
 }
 
 /// `--scenario`.
@@ -150,6 +179,18 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }),
     };
     cfg.validate()?;
+    if args.drive_at_rest != DriveArg::Energised || args.load_cell != LoadCellArg::Platform {
+        let mut plant = cfg.hidden_plant();
+        if args.drive_at_rest == DriveArg::Off {
+            plant.drive_at_rest = sim::DriveAtRest::Off {
+                idle_v: DRIVE_OFF_IDLE_V,
+            };
+        }
+        if args.load_cell == LoadCellArg::ConstantK {
+            plant.load_cell_load_gain = 0.0;
+        }
+        cfg.plant = Some(plant);
+    }
     let ui = Ui::new(args.ui, &[])?;
     let days = args.days;
     let mut progress = |done: f64| ui.progress(format_args!("simulate: day {done:.0} of {days}"));

@@ -135,6 +135,14 @@ impl SimConfig {
         self
     }
 
+    /// The hidden plant of a run with these settings: `plant` when set, otherwise the one
+    /// drawn from `elevator` and `seed` (the same as [`run`] draws).
+    pub fn hidden_plant(&self) -> SimElevator {
+        self.plant.clone().unwrap_or_else(|| {
+            SimElevator::from_elevator(&self.elevator, &mut Rng::new(self.seed).fork())
+        })
+    }
+
     /// Simulated span (s).
     pub fn duration_s(&self) -> f64 {
         self.days * 86_400.0
@@ -335,11 +343,9 @@ pub fn run<S: SimSink>(
 ) -> Result<SimTruth> {
     cfg.validate()?;
     let mut rng = Rng::new(cfg.seed);
-    let mut plant_rng = rng.fork();
-    let plant = cfg
-        .plant
-        .clone()
-        .unwrap_or_else(|| SimElevator::from_elevator(&cfg.elevator, &mut plant_rng));
+    // The plant's stream is forked off first, used or not, so the rest of the run is the same.
+    let _plant_rng = rng.fork();
+    let plant = cfg.hidden_plant();
     let mut engine = Engine::new(cfg, &plant, &mut rng, sink, progress);
     engine.run()?;
     let summary = engine.finish()?;

@@ -140,7 +140,10 @@ pub fn fit_with(
         ));
     }
     let healthy_trips = trip_evidence(&hybrid, &features.rows);
-    let calibrated = calibrate(&healthy_trips, calibration)?;
+    let mut calibrated = calibrate(&healthy_trips, calibration)?;
+    calibrated
+        .sensor
+        .calibrate_load_zero(&series.samples, feature_cfg.moving_threshold_mps);
     summary
         .warnings
         .extend(short_training_notes(&calibrated.report, &calibrated.risk));

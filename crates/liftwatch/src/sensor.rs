@@ -9,11 +9,20 @@
 //!              physics (above 10 kV, above 50 m/s); the trip lasted longer than any
 //!              healthy trip; a fast trip that did not change the floor; a trip that started on
 //!              another floor than the previous one ended                   → implausible
+//! per parking: z = mean load reading while the car stood still with the door closed, from its
+//!              5th minute on (nobody waits five minutes in a closed car: it is empty);
+//!              |z − z_healthy| above the limit calibrated on the training → load-cell zero drift
 //! score = 0.9·score + 0.1·implausible           exponential average over ~10 trips
 //! sensor = channel fault or score ≥ f;  released only when score < f/2 (hysteresis)
 //! ```
 //!
 //! An implausible trip is not machine evidence: the risk stage never sees it.
+//!
+//! Why the zero check: an offset of the load cell shifts every λ, and through m_eq·g the force
+//! the model expects: for the voltage it looks like a change of the drive (the force-
+//! proportional motor signature), and the risk named `motor` half a day into a 2 %/day drift.
+//! The empty car is the one load the cell must read as about zero whatever the traffic, so its
+//! reading is the witness the machine cannot fake.
 
 use serde::{Deserialize, Serialize};
 
@@ -26,6 +35,67 @@ pub const MAX_PLAUSIBLE_VOLTAGE_V: f64 = 10_000.0;
 
 /// A speed reading above this is no elevator's (the fastest run at about 20 m/s).
 pub const MAX_PLAUSIBLE_SPEED_MPS: f64 = 50.0;
+
+/// A car that has stood still with its door closed this long is parked, and empty: nobody
+/// waits five minutes in a closed car (s).
+pub const PARKED_S: f64 = 300.0;
+
+/// Least readings of a parking (after [`PARKED_S`]) that make a zero reading: a minute of 1 Hz
+/// readings averages the cell's noise and its 1 % steps to a few hundredths of a percent.
+const PARKED_MIN_SAMPLES: u32 = 60;
+
+/// Least parkings of a training that calibrate the zero check.
+const ZERO_MIN_PARKINGS: usize = 5;
+
+/// The zero limit is this many times the largest healthy deviation of the training's parkings.
+const ZERO_LIMIT_MARGIN: f64 = 1.5;
+
+/// The zero limit is never below this (percent of rated load): one quantisation step of a
+/// typical load cell, below which a shift is not a fault worth a visit.
+const ZERO_LIMIT_FLOOR_PCT: f64 = 1.0;
+
+/// The empty car's load readings while parked: the one accumulator of the zero check, run on
+/// the training by [`SensorLimits::calibrate_load_zero`] and on every sample by [`SensorCheck`].
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Parking {
+    /// Since when the car has stood still with the door closed (NaN when it does not).
+    #[serde(with = "exact")]
+    since: f64,
+    /// Sum and count of the load readings after [`PARKED_S`].
+    #[serde(with = "exact")]
+    sum: f64,
+    n: u32,
+}
+
+impl Parking {
+    /// Nothing seen yet.
+    pub fn new() -> Self {
+        Parking {
+            since: f64::NAN,
+            sum: 0.0,
+            n: 0,
+        }
+    }
+
+    /// Takes one sample (`thr` the motion threshold, m/s); returns the mean load reading of a
+    /// parking (percent) when this sample ends one that lasted long enough.
+    pub fn push(&mut self, x: &Sample, thr: f64) -> Option<f64> {
+        let parked = x.speed.is_finite() && x.speed <= thr && x.door.is_finite() && x.door < 0.5;
+        if !parked {
+            let out = (self.n >= PARKED_MIN_SAMPLES).then(|| self.sum / f64::from(self.n));
+            *self = Parking::new();
+            return out;
+        }
+        if self.since.is_nan() {
+            self.since = x.time;
+        }
+        if x.time - self.since >= PARKED_S && x.load.is_finite() {
+            self.sum += x.load;
+            self.n = self.n.saturating_add(1);
+        }
+        None
+    }
+}
 use crate::features::Trip;
 use crate::sample::Sample;
 
@@ -48,6 +118,17 @@ pub struct SensorLimits {
     /// Fraction of recent trips (exponential average over ~10 trips) that must be implausible
     /// to report `sensor`.
     pub implausible_fraction: f64,
+    /// The empty car's healthy reading (a parked car's, [`Parking`]; percent of rated load); `None` when
+    /// the training was too short to calibrate it, or for models written before the check.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub load_zero_pct: Option<f64>,
+    /// Largest plausible deviation of the empty car's reading from `load_zero_pct` (percent).
+    #[serde(default = "default_zero_limit")]
+    pub load_zero_limit_pct: f64,
+}
+
+fn default_zero_limit() -> f64 {
+    ZERO_LIMIT_FLOOR_PCT
 }
 
 impl SensorLimits {
@@ -83,6 +164,15 @@ impl SensorLimits {
             self.implausible_fraction,
             0.01,
             1.0,
+        )?;
+        if let Some(z) = self.load_zero_pct {
+            check("sensor.load_zero_pct", z, -1000.0, 1000.0)?;
+        }
+        check(
+            "sensor.load_zero_limit_pct",
+            self.load_zero_limit_pct,
+            0.01,
+            1000.0,
         )
     }
 }
@@ -97,7 +187,34 @@ impl Default for SensorLimits {
             stuck_load_cycles: 20,
             missing_limit_s: 3600.0,
             implausible_fraction: 0.5,
+            load_zero_pct: None,
+            load_zero_limit_pct: ZERO_LIMIT_FLOOR_PCT,
         }
+    }
+}
+
+impl SensorLimits {
+    /// Calibrates the load-cell zero check on healthy samples (`thr` the motion threshold):
+    /// the median of the parked readings, and a limit of [`ZERO_LIMIT_MARGIN`] times their
+    /// largest deviation from it, at least [`ZERO_LIMIT_FLOOR_PCT`]. A training with fewer
+    /// than [`ZERO_MIN_PARKINGS`] parkings leaves the check off.
+    pub fn calibrate_load_zero(&mut self, samples: &[Sample], thr: f64) {
+        let mut parking = Parking::new();
+        let readings: Vec<f64> = samples
+            .iter()
+            .filter_map(|x| parking.push(x, thr))
+            .collect();
+        if readings.len() < ZERO_MIN_PARKINGS {
+            self.load_zero_pct = None;
+            return;
+        }
+        let reference = crate::stats::median(&readings);
+        let widest = readings
+            .iter()
+            .map(|z| (z - reference).abs())
+            .fold(0.0, f64::max);
+        self.load_zero_pct = Some(reference);
+        self.load_zero_limit_pct = (ZERO_LIMIT_MARGIN * widest).max(ZERO_LIMIT_FLOOR_PCT);
     }
 }
 
@@ -132,6 +249,12 @@ pub struct SensorCheck {
     /// Last floor indicator value seen.
     #[serde(with = "exact")]
     floor: f64,
+    /// The parking in progress, for the zero check.
+    #[serde(default)]
+    parking: Parking,
+    /// The empty car's reading has left its healthy range.
+    #[serde(default)]
+    zero_drift: bool,
 }
 
 /// An f64 that serialises exactly, for tuples.
@@ -153,6 +276,22 @@ impl SensorCheck {
             moving_since: f64::NAN,
             still_since: f64::NAN,
             floor: f64::NAN,
+            parking: Parking::new(),
+            zero_drift: false,
+        }
+    }
+
+    /// True while the empty car's reading is out of its healthy range: the load cell's zero
+    /// has drifted.
+    pub fn load_zero_drift(&self) -> bool {
+        self.zero_drift
+    }
+
+    /// Takes one sample into the zero check: a parking that ends sets or clears the drift.
+    fn zero_check(&mut self, x: &Sample, cfg: &SensorLimits, thr: f64) {
+        let reading = self.parking.push(x, thr);
+        if let (Some(z), Some(reference)) = (reading, cfg.load_zero_pct) {
+            self.zero_drift = (z - reference).abs() > cfg.load_zero_limit_pct;
         }
     }
 
@@ -163,6 +302,7 @@ impl SensorCheck {
 
     /// Looks at one raw sample; `thr` is the motion threshold (m/s).
     pub fn sample(&mut self, x: &Sample, cfg: &SensorLimits, thr: f64) {
+        self.zero_check(x, cfg, thr);
         if x.speed.is_finite() {
             if x.speed > thr {
                 self.still_since = f64::NAN;
@@ -227,12 +367,13 @@ impl SensorCheck {
     /// True while a condition independent of trips says a sensor is broken.
     fn channel_fault(&self, cfg: &SensorLimits, time: f64) -> bool {
         let speed_stuck = time - self.moving_since > cfg.max_trip_s;
-        self.missing || speed_stuck || self.stuck_cycles >= cfg.stuck_load_cycles
+        self.missing || speed_stuck || self.stuck_cycles >= cfg.stuck_load_cycles || self.zero_drift
     }
 
     /// Judges a completed trip: true when it is plausible machine evidence.
     pub fn trip(&mut self, t: &Trip, cfg: &SensorLimits, floor_height: f64) -> bool {
-        let mut ok = !std::mem::take(&mut self.load_out_of_range);
+        // With the cell's zero off, every λ and so every expected force is off: not evidence.
+        let mut ok = !std::mem::take(&mut self.load_out_of_range) && !self.zero_drift;
         ok &= t.end_time - t.start_time <= cfg.max_trip_s;
         let floors_known = t.from_floor.is_finite() && t.to_floor.is_finite();
         if floors_known
@@ -265,5 +406,77 @@ impl SensorCheck {
 impl Default for SensorCheck {
     fn default() -> Self {
         SensorCheck::new()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A day of 1 Hz samples: every hour a 2-minute trip with 40 % load (door open around it),
+    /// then the car parks for the rest of the hour; the cell reads `offset` on top of the truth.
+    fn day(start: f64, offset_pct: f64, noise_seed: u64) -> Vec<Sample> {
+        let mut rng = crate::rng::Rng::new(noise_seed);
+        (0..86_400)
+            .map(|k| {
+                let t = start + f64::from(k);
+                let s = k % 3600;
+                let (speed, door, load) = match s {
+                    0..=29 => (0.0, 1.0, 40.0),
+                    30..=149 => (1.5, 0.0, 40.0),
+                    150..=179 => (0.0, 1.0, 0.0),
+                    _ => (0.0, 0.0, 0.0),
+                };
+                let reading = load + offset_pct + 0.5 * rng.normal();
+                Sample {
+                    time: t,
+                    speed,
+                    direction: 0.0,
+                    voltage: 0.0,
+                    load: reading.round(),
+                    door,
+                    floor: 1.0,
+                    current: f64::NAN,
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_parked_car_reads_the_empty_cars_load_and_a_shifted_zero_is_a_sensor_fault() {
+        let mut limits = SensorLimits::default();
+        limits.calibrate_load_zero(&day(0.0, 0.0, 1), 0.05);
+        let z = limits
+            .load_zero_pct
+            .expect("24 parkings calibrate the check");
+        assert!(z.abs() < 0.2, "the empty car reads {z} %");
+        assert_eq!(limits.load_zero_limit_pct, ZERO_LIMIT_FLOOR_PCT);
+
+        let watch = |offset: f64| {
+            let mut check = SensorCheck::new();
+            let mut flagged = false;
+            for x in day(86_400.0, offset, 2) {
+                check.sample(&x, &limits, 0.05);
+                flagged |= check.load_zero_drift();
+            }
+            (flagged, check.verdict(&limits, 2.0 * 86_400.0, false))
+        };
+        // The 40 % passengers of every trip never count; a healthy zero stays quiet.
+        assert_eq!(watch(0.0), (false, false));
+        // A cell 2 % off (1.5 % rounds to 2 % half the time) is a sensor fault at once.
+        assert_eq!(watch(2.0), (true, true));
+        assert_eq!(watch(-2.0), (true, true));
+    }
+
+    #[test]
+    fn a_short_training_leaves_the_zero_check_off() {
+        let mut limits = SensorLimits::default();
+        limits.calibrate_load_zero(&day(0.0, 0.0, 1)[..3 * 3600], 0.05);
+        assert_eq!(limits.load_zero_pct, None);
+        let mut check = SensorCheck::new();
+        for x in day(86_400.0, 5.0, 2) {
+            check.sample(&x, &limits, 0.05);
+        }
+        assert!(!check.load_zero_drift());
     }
 }

@@ -158,16 +158,26 @@ fn month_abbrev(m: time::Month) -> &'static str {
 /// Writes `t` (seconds since the Unix epoch) as an RFC 3339 instant at the UTC offset
 /// `offset_s` (`Z` for 0): whole seconds as `2026-03-01T09:00:00+01:00`, a fraction to the
 /// millisecond as `...T09:00:00.250+01:00`. The inverse of [`parse_rfc3339`] to 1 ms.
+/// Times outside the parser's range ([`MAX_ABS_TIME_S`]) or a zone offset beyond ±26 h come
+/// out as their plain seconds, which every reader of this crate also takes.
 pub fn format_rfc3339(t: f64, offset_s: i32) -> String {
-    let ms = (t * 1000.0).round() as i64 + i64::from(offset_s) * 1000;
+    let ms = (t * 1000.0).round() as i64;
     let (secs, milli) = (ms.div_euclid(1000), ms.rem_euclid(1000));
-    let (days, sod) = (secs.div_euclid(86_400), secs.rem_euclid(86_400));
-    let (y, m, d) = civil_from_days(days);
+    let local = time::UtcOffset::from_whole_seconds(offset_s)
+        .ok()
+        .zip(OffsetDateTime::from_unix_timestamp(secs).ok())
+        .and_then(|(off, d)| d.checked_to_offset(off));
+    let Some(d) = local.filter(|_| t.abs() <= MAX_ABS_TIME_S) else {
+        return format!("{t}");
+    };
     let mut s = format!(
-        "{y:04}-{m:02}-{d:02}T{:02}:{:02}:{:02}",
-        sod / 3600,
-        sod / 60 % 60,
-        sod % 60
+        "{:04}-{:02}-{:02}T{:02}:{:02}:{:02}",
+        d.year(),
+        u8::from(d.month()),
+        d.day(),
+        d.hour(),
+        d.minute(),
+        d.second()
     );
     if milli != 0 {
         s.push_str(&format!(".{milli:03}"));
@@ -180,19 +190,6 @@ pub fn format_rfc3339(t: f64, offset_s: i32) -> String {
         s.push_str(&format!("{sign}{:02}:{:02}", a / 3600, a / 60 % 60));
     }
     s
-}
-
-/// Proleptic Gregorian date of a day count since 1970-01-01 (H. Hinnant's `civil_from_days`).
-fn civil_from_days(z: i64) -> (i64, i64, i64) {
-    let z = z + 719_468;
-    let era = z.div_euclid(146_097);
-    let doe = z.rem_euclid(146_097);
-    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
-    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
-    let mp = (5 * doy + 2) / 153;
-    let d = doy - (153 * mp + 2) / 5 + 1;
-    let m = if mp < 10 { mp + 3 } else { mp - 9 };
-    (yoe + era * 400 + i64::from(m <= 2), m, d)
 }
 
 #[cfg(test)]

@@ -33,6 +33,10 @@ pub struct Aggregate {
     pub mode_correct: Option<usize>,
     /// Sensor cases only: detected cases not blamed on a machine mode.
     pub not_machine: Option<usize>,
+    /// liftwatch on machine faults: detections whose reported drift of the true mode lies
+    /// within two of its standard errors of the truth, and detections with a drift at all.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub drift_within_2se: Option<(usize, usize)>,
     /// False signals summed over the cases' exposure.
     pub false_signals: usize,
     /// Exposure (years).
@@ -102,6 +106,10 @@ pub fn aggregate(results: &[CaseResult]) -> Vec<Aggregate> {
                     rs.iter()
                         .filter(|r| matches!(r.mode, Some(FaultMode::Sensor | FaultMode::Unknown)))
                         .count()
+                }),
+                drift_within_2se: (method == "liftwatch" && machine).then(|| {
+                    let z: Vec<f64> = rs.iter().filter_map(|r| r.drift_z).collect();
+                    (z.iter().filter(|z| z.abs() <= 2.0).count(), z.len())
                 }),
                 false_signals,
                 exposure_years,

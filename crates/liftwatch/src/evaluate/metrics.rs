@@ -6,7 +6,12 @@
 //! delay       = (t_detect − t_onset)/day                  first detection at or after the onset
 //! false/year  = false signals/(exposure days/365.25)      before the onset, or the whole healthy run
 //! flicker     = threshold alarm activations, per trip, before it holds PERSISTENT_TRIPS trips
+//! drift z     = (reported − true drift of the true mode)/its reported SE, at detection
+//!               Kd % = 100·(kd_factor − 1), friction % = 100·(friction_factor − 1), brake N
 //! ```
+//!
+//! The true brake drag is the simulator's downward drag; liftwatch's brake signature weighs
+//! downward and braking trips alike, so the brake figure compares like with nearly like.
 
 use serde::Serialize;
 
@@ -43,6 +48,10 @@ pub struct MethodResult {
     pub flicker: Option<usize>,
     /// Threshold method only: delay until the alarm is persistent (days).
     pub persistent_delay_days: Option<f64>,
+    /// liftwatch on machine faults only: (reported − true drift of the true mode) over the
+    /// reported standard error, at detection.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub drift_z: Option<f64>,
 }
 
 /// What the metrics of one case read: its timing, its truth and what its monitors kept.
@@ -55,6 +64,9 @@ pub(super) struct Metrics<'a> {
     pub truth: Option<FaultMode>,
     /// The monitored run.
     pub sink: &'a CaseSink,
+    /// The degradation and the plant's true F_c (N), for the true drift at detection.
+    pub scenario: &'a sim::Scenario,
+    pub f_c: f64,
 }
 
 impl Metrics<'_> {
@@ -79,6 +91,7 @@ impl Metrics<'_> {
             mode_correct: None,
             flicker: None,
             persistent_delay_days: None,
+            drift_z: None,
         }
     }
 
@@ -100,6 +113,7 @@ impl Metrics<'_> {
         let mut false_signals = 0;
         let mut detected = None;
         let mut mode = None;
+        let mut at = None;
         for e in &self.sink.events {
             if level == Level::Normal && e.level > Level::Normal && self.before_onset(e.time) {
                 false_signals += 1;
@@ -107,6 +121,7 @@ impl Metrics<'_> {
             if detected.is_none() && e.level > level && !self.before_onset(e.time) {
                 detected = Some(e.time);
                 mode = Some(e.mode);
+                at = Some(e);
             }
             level = e.level;
         }
@@ -114,8 +129,31 @@ impl Metrics<'_> {
         if self.truth.is_some() {
             r.mode = mode;
             r.mode_correct = mode.map(|m| self.mode_correct(m));
+            r.drift_z = at.and_then(|e| self.drift_z(e));
         }
         r
+    }
+
+    /// (reported − true)/SE of the true machine mode's drift at the event `e`.
+    fn drift_z(&self, e: &Event) -> Option<f64> {
+        let fx = self.scenario.effects_at(e.time, self.f_c);
+        let ev = &e.evidence;
+        let (got, se, truth) = match self.truth? {
+            FaultMode::Motor => (
+                ev.kd_drift_pct,
+                ev.kd_drift_se_pct,
+                100.0 * (fx.kd_factor - 1.0),
+            ),
+            FaultMode::Friction => (
+                ev.friction_drift_pct,
+                ev.friction_drift_se_pct,
+                100.0 * (fx.friction_factor - 1.0),
+            ),
+            FaultMode::Brake => (ev.brake_drag_n, ev.brake_drag_se_n, fx.brake_drag_n),
+            FaultMode::Sensor | FaultMode::Unknown => return None,
+        };
+        let z = (got - truth) / se;
+        z.is_finite().then_some(z)
     }
 
     /// The threshold method: detection at its first alarm after the onset, flicker and

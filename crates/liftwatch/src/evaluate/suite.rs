@@ -321,6 +321,8 @@ pub fn run_case(
         exposure_days,
         truth: case.truth,
         sink: &sink,
+        scenario: &case.scenario,
+        f_c: trained.plant.f_c,
     };
     let methods = vec![
         ctx.liftwatch(),

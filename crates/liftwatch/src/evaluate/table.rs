@@ -63,7 +63,7 @@ pub fn table(ev: &Evaluation) -> String {
         ));
     }
     s.push_str(&format!(
-        "\n{:9}  {:8}  {:>5}  {:>6}  {:>9}  {:>9}  {:>7}  {:>8}  {:>9}  {:>7}  {:>9}\n",
+        "\n{:9}  {:8}  {:>5}  {:>6}  {:>9}  {:>9}  {:>7}  {:>8}  {:>8}  {:>9}  {:>7}  {:>9}\n",
         "method",
         "truth",
         "cases",
@@ -72,6 +72,7 @@ pub fn table(ev: &Evaluation) -> String {
         "worst d",
         "mean σ",
         "mode ok",
+        "drift ok",
         "false/yr",
         "flicker",
         "persist d"
@@ -83,7 +84,7 @@ pub fn table(ev: &Evaluation) -> String {
             _ => "-".into(),
         };
         s.push_str(&format!(
-            "{:9}  {:8}  {:>5}  {:>6}  {:>9}  {:>9}  {:>7}  {:>8}  {:>9.2}  {:>7}  {:>9}\n",
+            "{:9}  {:8}  {:>5}  {:>6}  {:>9}  {:>9}  {:>7}  {:>8}  {:>8}  {:>9.2}  {:>7}  {:>9}\n",
             a.method,
             truth_name(a.truth),
             a.cases,
@@ -92,6 +93,8 @@ pub fn table(ev: &Evaluation) -> String {
             opt(a.worst_delay_days, 2),
             opt(a.mean_severity_at_detection, 2),
             mode,
+            a.drift_within_2se
+                .map_or_else(|| "-".into(), |(k, n)| format!("{k}/{n}")),
             a.false_per_year,
             opt(a.mean_flicker, 1),
             match (a.mean_persistent_days, a.never_persistent) {
@@ -105,7 +108,8 @@ pub fn table(ev: &Evaluation) -> String {
          fl: threshold activations (per trip) before its alarm holds for 20 trips; \
          (n): false signals before onset / on the healthy run; late z: mean standardised trip residual \
          in the last fifth of the span; mode ok: right mode / detected (sensor rows: |not blamed on \
-         the machine); persist d: threshold delay until its alarm is persistent\n",
+         the machine); drift ok: reported drift of the true mode within 2 SE of the truth at \
+         detection / detections with a drift; persist d: threshold delay until its alarm is persistent\n",
     );
     s
 }

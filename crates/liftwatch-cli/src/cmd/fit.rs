@@ -210,6 +210,24 @@ pub fn summary(m: &fit::FittedModel, trips: usize, seconds: f64) -> String {
     for w in &f.warnings {
         let _ = writeln!(s, "note: {w}");
     }
+    let fc = &m.features;
+    let _ = writeln!(
+        s,
+        "load cell: feels k = {:.2} of the load's inertia and p = {:.3} of M_r ({}); empty-car zero {}",
+        fc.load_cell_load_gain,
+        fc.load_cell_platform_ratio,
+        if fc.load_cell_load_gain == 1.0 {
+            "under the platform"
+        } else if fc.load_cell_load_gain < 0.5 {
+            "the paper's constant-k cell"
+        } else {
+            "part of the load"
+        },
+        m.sensor.load_zero_pct.map_or_else(
+            || "not checked (fewer than 5 parkings of 5 min with the door closed)".to_string(),
+            |z| format!("reads {z:.2} %, checked to ±{:.2} %", m.sensor.load_zero_limit_pct)
+        )
+    );
     let _ = writeln!(
         s,
         "healthy scales: σ_U {:.2} V, σ_F {:.0} N; risk thresholds: advisory {:.3}, alarm {:.3}",

@@ -1,7 +1,6 @@
 //! The simulator's time loop: dispatcher, motion, doors and brake, the plant's physics and
 //! the logger, second by second (timings and equations in the module docs of [`super`]).
 
-use super::plant::DriveAtRest;
 use super::*;
 
 /// Most calls waiting at once; beyond it new calls are dropped (people take the stairs).
@@ -419,13 +418,11 @@ impl<'a, S: SimSink> Engine<'a, S> {
             Signal::Voltage => {
                 let (x, v, a) = self.kin(m, ts);
                 let fx = self.cfg.scenario.effects_at(ts, self.p.f_c);
-                let u = if sign(v) == 0 && self.p.drive_at_rest != DriveAtRest::Energised {
-                    self.p
-                        .rest_voltage(x, self.load_kg, self.energised, self.kd_at(ts, &fx))
-                } else {
-                    let f = self.p.force(x, v, a, self.load_kg, &fx);
-                    self.p.voltage(v, f, self.kd_at(ts, &fx))
-                };
+                let f = self.p.force(x, v, a, self.load_kg, &fx);
+                let kd = self.kd_at(ts, &fx);
+                let u = self
+                    .p
+                    .drive_voltage((x, v), f, self.load_kg, self.energised, kd);
                 quant(
                     (u + sp.voltage_noise_v * rng.normal()).max(0.0),
                     sp.voltage_quant_v,
@@ -501,11 +498,9 @@ impl<'a, S: SimSink> Engine<'a, S> {
             pos_true: x,
             load_true: self.load_kg / self.p.rated.rated_load_kg,
             force_true: force,
-            voltage_true: if moving || self.p.drive_at_rest == DriveAtRest::Energised {
-                self.p.voltage(v, force, kd)
-            } else {
-                self.p.rest_voltage(x, self.load_kg, self.energised, kd)
-            },
+            voltage_true: self
+                .p
+                .drive_voltage((x, v), force, self.load_kg, self.energised, kd),
             kd_true: kd,
             severity: fx.severity,
         };

@@ -259,6 +259,12 @@ impl SimElevator {
         ropes + cable
     }
 
+    /// m_eq(x): car and load against counterweight, ropes and cable at height `x` (kg, + pulls
+    /// the car down).
+    pub fn unbalanced_mass_kg(&self, x: f64, load_kg: f64) -> f64 {
+        self.car_mass_kg + load_kg - self.counterweight_mass_kg() + self.imbalance_kg(x)
+    }
+
     /// Moving mass with an empty car, rotating inertia included (kg).
     pub fn m0(&self) -> f64 {
         let h = self.travel_m();
@@ -272,7 +278,7 @@ impl SimElevator {
     pub fn force(&self, x: f64, v: f64, a: f64, load_kg: f64, fx: &Effects) -> f64 {
         let s = sign(v);
         let m_tot = self.m0() + load_kg;
-        let m_eq = self.car_mass_kg + load_kg - self.counterweight_mass_kg() + self.imbalance_kg(x);
+        let m_eq = self.unbalanced_mass_kg(x, load_kg);
         let fc_dir = self.f_c * (1.0 + f64::from(s) * self.f_c_asym);
         let stribeck = 1.0 + self.stribeck_ratio * (-(v / self.stribeck_speed_mps).powi(2)).exp();
         let friction = fx.friction_factor * (fc_dir * f64::from(s) * stribeck + self.c_visc * v);
@@ -308,18 +314,24 @@ impl SimElevator {
         (self.u0 + self.ke * v.abs() + phi * kd * force * f64::from(s)).max(0.0)
     }
 
-    /// Motor voltage magnitude (V) at standstill at height `x` with `load_kg` aboard: U0 for a
-    /// drive energised at rest; for one that is off, the sensor's offset, or U0 plus the
-    /// resistive drop of the pre-torque holding the car while `energised` (brake lift and drop).
-    pub fn rest_voltage(&self, x: f64, load_kg: f64, energised: bool, kd: f64) -> f64 {
+    /// Motor voltage magnitude (V) the drive shows at height `x`, velocity `v`, force `force`,
+    /// `load_kg` aboard and the current `kd`: [`SimElevator::voltage`], except at rest on a
+    /// drive that is off there: the sensor's offset, or U0 plus the resistive drop of the
+    /// pre-torque holding the car while `energised` (brake lift and drop).
+    pub fn drive_voltage(
+        &self,
+        (x, v): (f64, f64),
+        force: f64,
+        load_kg: f64,
+        energised: bool,
+        kd: f64,
+    ) -> f64 {
         match self.drive_at_rest {
-            DriveAtRest::Energised => self.u0,
-            DriveAtRest::Off { idle_v } if !energised => idle_v,
-            DriveAtRest::Off { .. } => {
-                let m_eq = self.car_mass_kg + load_kg - self.counterweight_mass_kg()
-                    + self.imbalance_kg(x);
-                self.u0 + kd * (m_eq * G).abs()
+            DriveAtRest::Off { idle_v } if sign(v) == 0 && !energised => idle_v,
+            DriveAtRest::Off { .. } if sign(v) == 0 => {
+                self.u0 + kd * (self.unbalanced_mass_kg(x, load_kg) * G).abs()
             }
+            _ => self.voltage(v, force, kd),
         }
     }
 

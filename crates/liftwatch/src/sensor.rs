@@ -27,6 +27,8 @@
 use serde::{Deserialize, Serialize};
 
 use crate::exact;
+use crate::features::Trip;
+use crate::sample::Sample;
 
 /// A motor voltage reading above this is no drive's (elevator drives run at up to about 1 kV):
 /// the sensor or the logger is broken, and the trip is not machine evidence. It also keeps
@@ -56,7 +58,7 @@ const ZERO_LIMIT_FLOOR_PCT: f64 = 1.0;
 
 /// The empty car's load readings while parked: the one accumulator of the zero check, run on
 /// the training by [`SensorLimits::calibrate_load_zero`] and on every sample by [`SensorCheck`].
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Parking {
     /// Since when the car has stood still with the door closed (NaN when it does not).
     #[serde(with = "exact")]
@@ -96,8 +98,13 @@ impl Parking {
         None
     }
 }
-use crate::features::Trip;
-use crate::sample::Sample;
+
+impl Default for Parking {
+    /// As [`Parking::new`]: no parking under way (a state written before the zero check).
+    fn default() -> Self {
+        Parking::new()
+    }
+}
 
 /// Thresholds on raw samples and trips that tell a broken sensor from a broken machine.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

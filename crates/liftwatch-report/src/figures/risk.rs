@@ -21,7 +21,7 @@ const MOTOR: usize = FaultMode::Motor as usize;
 const BRAKE: usize = FaultMode::Brake as usize;
 const FRICTION: usize = FaultMode::Friction as usize;
 
-use liftwatch::forecast::{drift_for_risk, physical_limit};
+use liftwatch::forecast::{drift_for_risk, physical_limit, BRAKE_DRAG_LIMIT_SHARE};
 use liftwatch::ingest::time::day_text;
 use liftwatch::risk::friction_reference;
 
@@ -236,7 +236,8 @@ fn drift_panels(c: &Ctx) -> (Panel, Panel) {
         color: RED,
         dash: Dash::Dashed,
         label: Some(format!(
-            "physical limit {limit:.0} N (1 % of car + rated load weight)"
+            "physical limit {limit:.0} N ({:.0} % of car + rated load weight)",
+            100.0 * BRAKE_DRAG_LIMIT_SHARE
         )),
     });
     newton.marks.push(Mark::Line {

@@ -268,7 +268,6 @@ pub fn observations_weighted(
     let (mut up, mut down) = (0usize, 0usize);
     let mut bins: std::collections::BTreeMap<i64, (f64, f64, f64)> =
         std::collections::BTreeMap::new();
-    let mut n_rest = 0usize;
     let mut rest_voltages = Vec::new();
     for (i, r) in rows.iter().enumerate().filter(|(_, r)| ok(r)) {
         if r.s != 0 {
@@ -298,7 +297,6 @@ pub fn observations_weighted(
             b.0 += 1.0;
             b.1 += r.lambda;
             b.2 += r.voltage;
-            n_rest += 1;
             rest_voltages.push(r.voltage);
         }
     }
@@ -318,6 +316,7 @@ pub fn observations_weighted(
         )));
     }
     let n_moving = moving.len();
+    let n_rest = rest_voltages.len();
     let rest_voltage_v = crate::stats::median(&rest_voltages);
     let moving_voltage_v = crate::stats::median(&moving.iter().map(|o| o.u).collect::<Vec<_>>());
     let drive_off_at_rest = rest_voltage_v < DRIVE_OFF_SHARE * moving_voltage_v;

@@ -646,3 +646,30 @@ fn rows_trip_writes_one_row_per_trip_at_fixed_precision() {
         text.len()
     );
 }
+
+#[test]
+fn a_reader_that_goes_away_ends_the_run_quietly_with_141() {
+    // `liftwatch monitor … --out - | head -1`: the reader closes the pipe after one line; the
+    // run stops with 128 + SIGPIPE as a shell reports for coreutils, saying nothing.
+    let f = fixture();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_liftwatch"))
+        .args(["monitor", "--model", s(&f.model), "--input", s(&f.fault), "--out", "-"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("the binary runs");
+    let mut stdout = child.stdout.take().expect("stdout is piped");
+    let mut first = [0u8; 64];
+    stdout.read_exact(&mut first).expect("the header comes first");
+    drop(stdout);
+    let mut stderr = String::new();
+    child
+        .stderr
+        .take()
+        .expect("stderr is piped")
+        .read_to_string(&mut stderr)
+        .expect("stderr is UTF-8");
+    let status = child.wait().expect("the run ends");
+    assert_eq!(status.code(), Some(141), "stderr: {stderr}");
+    assert!(!stderr.contains("Broken pipe"), "stderr: {stderr}");
+}

@@ -39,20 +39,13 @@ pub struct Args {
     pub ui: UiArgs,
 }
 
-/// The library error as one anyhow message. `Error::Io` already prints its source in
-/// its message, so keeping it as a cause would print the OS error twice under `{:#}`.
-fn flat(err: liftwatch::Error) -> anyhow::Error {
-    anyhow::anyhow!("{err}")
-}
-
 /// Runs `align`: ingest and align `--input`, write `--out`, one warning and one summary line.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let ui = Ui::new(args.ui, &[("--out", &args.out)])?;
     let cfg = AlignConfig::default()
         .with_step(args.step)
         .and_then(|c| c.with_gap_limit(args.gap_limit))
-        .and_then(|c| c.with_reorder_window(args.reorder_window))
-        .map_err(flat)?;
+        .and_then(|c| c.with_reorder_window(args.reorder_window))?;
     check_distinct(&[
         FileArg::input("--input", &args.input),
         FileArg::output("--out", &args.out),
@@ -60,11 +53,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     .map_err(anyhow::Error::msg)?;
     let out = named(&args.out, true);
     let cannot_write = || format!("cannot write {out}");
-    let mut sink = AlignedFileSink::create(&args.out)
-        .map_err(flat)
-        .with_context(cannot_write)?;
-    let report = align_file(&args.input, &cfg, &mut sink).map_err(flat)?;
-    sink.finish().map_err(flat).with_context(cannot_write)?;
+    // The library's errors carry no chained cause (`Error::Io` states its OS error in its own
+    // message), so `{:#}` prints each once.
+    let mut sink = AlignedFileSink::create(&args.out).with_context(cannot_write)?;
+    let report = align_file(&args.input, &cfg, &mut sink)?;
+    sink.finish().with_context(cannot_write)?;
     if let Some(w) = report.warning() {
         warn(&args.input, &w);
     }

@@ -242,7 +242,7 @@ fn align_reads_stdin_and_writes_stdout_the_same_bytes_as_files() {
 }
 
 #[test]
-fn gz_input_and_output_are_chosen_by_the_name() {
+fn gz_and_zst_input_and_output_are_chosen_by_the_name() {
     let fx = fixture();
     let dir = Dir::new("gz");
     let plain = dir.path("aligned.csv");
@@ -272,12 +272,16 @@ fn gz_input_and_output_are_chosen_by_the_name() {
     ok(&[&args[..], &[s(&plain), "--out", s(&plain_rows)]].concat());
     let rows = gunzip(&std::fs::read(&rows).expect("rows"));
     assert!(rows == std::fs::read(&plain_rows).expect("plain rows"));
+    // The same with zstd, in and out.
     let zst = dir.path("aligned.csv.zst");
-    fails(
-        &["align", "--input", s(&fx.raw), "--out", s(&zst)],
-        "zstd (.zst) is not supported",
-    );
-    assert!(!zst.exists());
+    ok(&["align", "--input", s(&fx.raw), "--out", s(&zst)]);
+    let got = std::fs::read(&zst).expect("zst output");
+    assert_eq!(&got[..4], b"\x28\xb5\x2f\xfd", "the .zst output is zstd");
+    assert!(zstd::decode_all(&got[..]).expect("zstd") == want);
+    let zst_rows = dir.path("risk.csv.zst");
+    ok(&[&args[..], &[s(&zst), "--out", s(&zst_rows)]].concat());
+    let rows = zstd::decode_all(&std::fs::read(&zst_rows).expect("rows")[..]).expect("zstd");
+    assert!(rows == std::fs::read(&plain_rows).expect("plain rows"));
 }
 
 #[test]

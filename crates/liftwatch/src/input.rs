@@ -3,13 +3,13 @@
 //! ```text
 //! -            standard input, copied to an unlinked spool file while it is read
 //! NAME.gz      gzip, decompressed while it is read (several members allowed, as `cat a.gz b.gz`)
-//! NAME.zst     refused: this build has no zstd (see the README's Dependencies)
+//! NAME.zst     zstd, decompressed while it is read (several frames allowed, as `cat a.zst b.zst`)
 //! anything     read as it is
 //! ```
 //!
 //! Alignment may read its input a second time (a row later than the reorder window, a
 //! `current` column appearing late, an aligned file at another step), so every input is
-//! [`Seek`]able back to its start: a gzip file is reopened and decompressed again, and
+//! [`Seek`]able back to its start: a compressed file is reopened and decompressed again, and
 //! standard input is replayed from its spool. The spool costs one copy of the piped bytes on
 //! the temporary directory's disk, never memory; it is unlinked as soon as it is created, so
 //! nothing is left behind by a kill.
@@ -45,21 +45,17 @@ pub enum Compression {
     None,
     /// gzip (`.gz`), RFC 1952.
     Gzip,
+    /// Zstandard (`.zst`), RFC 8878.
+    Zstd,
 }
 
 impl Compression {
     /// The compression the name of `path` asks for; `-` is always plain.
-    ///
-    /// # Errors
-    /// [`Error::Io`] naming `path` for `.zst`, which this build cannot read or write.
-    pub fn of(path: &Path) -> Result<Compression> {
+    pub fn of(path: &Path) -> Compression {
         match path.extension().and_then(|e| e.to_str()) {
-            Some(e) if e.eq_ignore_ascii_case("gz") => Ok(Compression::Gzip),
-            Some(e) if e.eq_ignore_ascii_case("zst") => Err(Error::io(
-                path,
-                io::Error::other("zstd (.zst) is not supported by this build, use .gz or plain"),
-            )),
-            _ => Ok(Compression::None),
+            Some(e) if e.eq_ignore_ascii_case("gz") => Compression::Gzip,
+            Some(e) if e.eq_ignore_ascii_case("zst") => Compression::Zstd,
+            _ => Compression::None,
         }
     }
 }
@@ -75,15 +71,16 @@ enum Inner {
     File(File),
     /// Boxed: a decoder's state is several times the size of the other variants.
     Gzip(Box<MultiGzDecoder<BufReader<File>>>, PathBuf),
+    Zstd(Box<ZstdDecoder>, PathBuf),
     Stdin(Spool),
 }
 
 impl Input {
-    /// Opens `path`: `-` is standard input, a `.gz` name is decompressed.
+    /// Opens `path`: `-` is standard input, a `.gz` or `.zst` name is decompressed.
     ///
     /// # Errors
-    /// [`Error::Io`] naming the file when it cannot be opened, when it is `.zst`, or when
-    /// standard input's spool file cannot be created.
+    /// [`Error::Io`] naming the file when it cannot be opened, or when standard input's spool
+    /// file cannot be created.
     pub fn open(path: &Path) -> Result<Input> {
         if is_stdio(path) {
             let name = PathBuf::from(STDIN_NAME);
@@ -93,11 +90,14 @@ impl Input {
                 inner: Inner::Stdin(spool),
             });
         }
-        let compression = Compression::of(path)?;
         let file = File::open(path).map_err(|e| Error::io(path, e))?;
-        let inner = match compression {
+        let inner = match Compression::of(path) {
             Compression::None => Inner::File(file),
             Compression::Gzip => Inner::Gzip(Box::new(gunzip(file)), path.to_path_buf()),
+            Compression::Zstd => Inner::Zstd(
+                Box::new(unzstd(file).map_err(|e| Error::io(path, e))?),
+                path.to_path_buf(),
+            ),
         };
         Ok(Input {
             name: path.to_path_buf(),
@@ -115,11 +115,19 @@ fn gunzip(file: File) -> MultiGzDecoder<BufReader<File>> {
     MultiGzDecoder::new(BufReader::with_capacity(1 << 16, file))
 }
 
+/// A zstd stream over a buffered file; it reads frame after frame to the end of the file.
+type ZstdDecoder = zstd::stream::read::Decoder<'static, BufReader<File>>;
+
+fn unzstd(file: File) -> io::Result<ZstdDecoder> {
+    ZstdDecoder::with_buffer(BufReader::with_capacity(1 << 16, file))
+}
+
 impl Read for Input {
     fn read(&mut self, buf: &mut [u8]) -> io::Result<usize> {
         match &mut self.inner {
             Inner::File(f) => f.read(buf),
             Inner::Gzip(d, _) => d.read(buf),
+            Inner::Zstd(d, _) => d.read(buf),
             Inner::Stdin(s) => s.read(buf),
         }
     }
@@ -133,6 +141,10 @@ impl Seek for Input {
             (Inner::File(f), pos) => f.seek(pos),
             (Inner::Gzip(d, path), SeekFrom::Start(0)) => {
                 **d = gunzip(File::open(&*path)?);
+                Ok(0)
+            }
+            (Inner::Zstd(d, path), SeekFrom::Start(0)) => {
+                **d = unzstd(File::open(&*path)?)?;
                 Ok(0)
             }
             (Inner::Stdin(s), SeekFrom::Start(0)) => {
@@ -242,13 +254,28 @@ mod tests {
     }
 
     #[test]
-    fn zst_is_refused_naming_the_file() {
-        let err = Input::open(Path::new("log.csv.zst")).err().unwrap();
-        assert!(err.to_string().contains("log.csv.zst: zstd"), "{err}");
-        assert_eq!(
-            Compression::of(Path::new("a.CSV.GZ")).unwrap(),
-            Compression::Gzip
-        );
-        assert_eq!(Compression::of(Path::new("-")).unwrap(), Compression::None);
+    fn a_zstd_file_of_two_frames_reads_and_rewinds_to_its_text() {
+        let dir = scratch("zst");
+        let path = dir.join("raw.csv.zst");
+        let (a, b) = (&b"time,signal,value\n0,speed,0\n"[..], &b"1,speed,1\n"[..]);
+        let mut bytes = zstd::encode_all(a, 3).unwrap();
+        bytes.extend(zstd::encode_all(b, 3).unwrap());
+        std::fs::write(&path, bytes).unwrap();
+        let mut input = Input::open(&path).unwrap();
+        let mut got = Vec::new();
+        input.read_to_end(&mut got).unwrap();
+        assert_eq!(got, [a, b].concat(), "both frames, as `cat a.zst b.zst`");
+        input.seek(SeekFrom::Start(0)).unwrap();
+        got.clear();
+        input.read_to_end(&mut got).unwrap();
+        assert_eq!(got, [a, b].concat(), "read again from the start");
+    }
+
+    #[test]
+    fn the_compression_is_told_by_the_extension_in_any_case() {
+        assert_eq!(Compression::of(Path::new("a.CSV.GZ")), Compression::Gzip);
+        assert_eq!(Compression::of(Path::new("a.csv.Zst")), Compression::Zstd);
+        assert_eq!(Compression::of(Path::new("a.csv")), Compression::None);
+        assert_eq!(Compression::of(Path::new("-")), Compression::None);
     }
 }

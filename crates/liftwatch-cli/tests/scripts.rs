@@ -677,3 +677,38 @@ fn a_reader_that_goes_away_ends_the_run_quietly_with_141() {
     assert_eq!(status.code(), Some(141), "stderr: {stderr}");
     assert!(!stderr.contains("Broken pipe"), "stderr: {stderr}");
 }
+
+#[test]
+fn every_machine_event_carries_the_forecast_of_its_mode() {
+    let fx = fixture();
+    let dir = Dir::new("event-forecast");
+    let events = dir.path("events.jsonl");
+    let args = ["monitor", "--model", s(&fx.model), "--input", s(&fx.fault)];
+    ok(&[&args[..], &["--out", "/dev/null", "--events", s(&events)]].concat());
+    let text = std::fs::read_to_string(&events).expect("events");
+    let mut machine = 0;
+    for line in text.lines() {
+        let e: serde_json::Value = serde_json::from_str(line).expect("one JSON object a line");
+        let mode = e["mode"].as_str().expect("mode");
+        if !["motor", "brake", "friction"].contains(&mode) {
+            assert!(e.get("forecast").is_none(), "{line}");
+            continue;
+        }
+        machine += 1;
+        let fc = &e["forecast"];
+        assert_eq!(fc["mode"], mode, "{line}");
+        let names: Vec<&str> = fc["crossings"]
+            .as_array()
+            .expect("crossings")
+            .iter()
+            .map(|c| c["name"].as_str().expect("name"))
+            .collect();
+        assert_eq!(names, ["advisory level", "alarm level", "physical limit"]);
+        // An event raised at advisory or above has reached the advisory level.
+        if e["level"] != "normal" {
+            let first = &fc["crossings"][0]["when"]["status"];
+            assert_eq!(first, "reached", "{line}");
+        }
+    }
+    assert!(machine > 0, "the motor fault raises a machine event: {text}");
+}

@@ -21,7 +21,7 @@ use serde::Serialize;
 
 use crate::alarm::Level;
 use crate::fit::FittedModel;
-use crate::forecast::{forecast, unit_of, Forecast, ModeForecast, When};
+use crate::forecast::{unit_of, Forecast, ModeForecast, When};
 use crate::ingest::time::{day_text, instant_text, is_calendar};
 use crate::mode::{FaultMode, MACHINE_MODES, N_MODES};
 use crate::monitor::MonitorState;
@@ -105,15 +105,7 @@ impl Verdict {
                 }
             })
             .collect();
-        let fc = forecast(
-            &state.drifts,
-            cfg,
-            &model.hybrid.elevator,
-            f_c,
-            level,
-            state.last_time,
-            changed,
-        );
+        let fc = state.forecast(model);
         Verdict {
             level,
             mode,

@@ -206,7 +206,7 @@ impl Sink<'_> {
         }
         self.highest = self.highest.max(r.level);
         if let (Some(e), Some(f)) = (&r.event, &mut self.events) {
-            let line = e.to_json_line();
+            let line = self.monitor.event_line(e);
             let mut extra = self.event_extra.clone();
             if let TimeFormat::Rfc3339 { offset_s } = self.time {
                 let at = liftwatch::ingest::time::format_rfc3339(e.time, offset_s);

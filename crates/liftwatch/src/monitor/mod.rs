@@ -42,6 +42,7 @@ use crate::error::{Error, Result};
 use crate::features::{FeatureRow, FeatureTracker, Trip};
 use crate::fit::FittedModel;
 use crate::forecast::DriftHistory;
+use crate::mode::MACHINE_MODES;
 use crate::output::write_atomic;
 use crate::residual::{PredictionCache, Residuals};
 use crate::risk::{friction_reference, RiskTracker, TripAccumulator};
@@ -293,6 +294,20 @@ impl MonitorState {
         self.risk.held_window_trips(cfg)
     }
 
+    /// When the drifts' trends reach the advisory and alarm levels and each mode's physical
+    /// limit, at the last sample seen: what the verdict and every event carry.
+    pub fn forecast(&self, model: &FittedModel) -> crate::forecast::Forecast {
+        crate::forecast::forecast(
+            &self.drifts,
+            &model.risk,
+            &model.hybrid.elevator,
+            friction_reference(&model.hybrid).0,
+            self.level(),
+            self.last_time,
+            self.changed_since(&model.risk),
+        )
+    }
+
     /// Time at which the change the sequential decision now holds began (the block of its
     /// first changed trip), `None` when it holds none.
     pub fn changed_since(&self, cfg: &crate::risk::RiskConfig) -> Option<f64> {
@@ -377,6 +392,24 @@ impl Monitor {
             cache: PredictionCache::default(),
             st: state,
         })
+    }
+
+    /// The event as one JSON line (DATA.md §4, [`Event::to_json_line`]) with the forecast
+    /// of its mode appended (`"forecast": {quantity, unit, trend, crossings}`) when it names
+    /// a machine mode: when the drift is due to reach the next levels, as the event is
+    /// raised. The one event line of the CLI and the service.
+    pub fn event_line(&self, e: &Event) -> String {
+        let line = e.to_json_line();
+        let Some(m) = MACHINE_MODES.iter().position(|&m| m == e.mode) else {
+            return line;
+        };
+        let fc = self.st.forecast(&self.model);
+        let mode = serde_json::to_string(&fc.modes[m])
+            .expect("a forecast of numbers and names always serialises");
+        match line.strip_suffix('}') {
+            Some(body) => format!(r#"{body},"forecast":{mode}}}"#),
+            None => line,
+        }
     }
 
     /// A copy of the state, to save and resume from.

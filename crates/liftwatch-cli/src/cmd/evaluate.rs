@@ -26,6 +26,16 @@ pub struct Args {
     /// Base seed: every simulated plant and run derives its seed from it.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+    /// Healthy training span per elevator (days; the paper's 3 hours are 0.125; one shorter
+    /// than a day starts at 07:00).
+    #[arg(long, default_value_t = 7.0)]
+    pub train_days: f64,
+    /// Monitored span of a fault case (days; onset at 40 % of it) [default: 25, quick 8].
+    #[arg(long)]
+    pub fault_days: Option<f64>,
+    /// Monitored span of a healthy case (days) [default: 30, quick 8].
+    #[arg(long)]
+    pub healthy_days: Option<f64>,
     /// Worker threads; the results do not depend on it.
     #[arg(long, default_value_t = 2)]
     pub threads: usize,
@@ -45,12 +55,18 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .with_context(|| format!("cannot create {}", args.out.display()))?;
     let mut cfg = SuiteConfig::new(args.seed, args.quick);
     cfg.threads = args.threads;
+    cfg.train_days = args.train_days;
+    cfg.fault_days = args.fault_days.unwrap_or(cfg.fault_days);
+    cfg.healthy_days = args.healthy_days.unwrap_or(cfg.healthy_days);
     let ui = Ui::new(args.ui, &[])?;
     let clock = Instant::now();
     ui.say(format_args!(
-        "evaluate: {} suite, seed {}, {} thread(s)",
+        "evaluate: {} suite, seed {}, trainings of {} days, faults over {} days, healthy runs of {} days, {} thread(s)",
         if args.quick { "quick" } else { "full" },
         args.seed,
+        cfg.train_days,
+        cfg.fault_days,
+        cfg.healthy_days,
         args.threads
     ));
     let ev = run_suite(&cfg, &|line| ui.progress(format_args!("evaluate: {line}")))

@@ -52,6 +52,10 @@ pub struct MethodResult {
     /// reported standard error, at detection.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub drift_z: Option<f64>,
+    /// liftwatch only: every event of the run (level changes, mode named, evidence), so that
+    /// a false advisory or a wrong mode in the table can be read back in `evaluation.json`.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub events: Vec<Event>,
 }
 
 /// What the metrics of one case read: its timing, its truth and what its monitors kept.
@@ -92,6 +96,7 @@ impl Metrics<'_> {
             flicker: None,
             persistent_delay_days: None,
             drift_z: None,
+            events: Vec::new(),
         }
     }
 
@@ -131,6 +136,7 @@ impl Metrics<'_> {
             r.mode_correct = mode.map(|m| self.mode_correct(m));
             r.drift_z = at.and_then(|e| self.drift_z(e));
         }
+        r.events = self.sink.events.clone();
         r
     }
 

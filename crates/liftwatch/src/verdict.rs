@@ -275,6 +275,14 @@ fn mode_forecast_text(f: &ModeForecast, now: f64) -> String {
                     } else {
                         String::new()
                     };
+                    if time <= now {
+                        // The trend line is past the level already, its interval not yet: the
+                        // crossing is due, not "in −3 days".
+                        return format!(
+                            "{level} is due now (the trend is past it; its {:.0} % interval reaches it within {late_text})",
+                            100.0 * crate::forecast::COVERAGE
+                        );
+                    }
                     format!(
                         "{level} in ~{:.0} days ({:.0} to {late_text}{dates}, {:.0} % interval)",
                         days(time),

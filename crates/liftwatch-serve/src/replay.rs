@@ -242,9 +242,9 @@ pub fn replay(
             crate::config::one_line(id)
         ));
     }
-    if !(opts.batch_s.is_finite() && opts.batch_s > 0.0)
-        || !(opts.speed.is_finite() && opts.speed >= 0.0)
-    {
+    let batch_ok = opts.batch_s.is_finite() && opts.batch_s > 0.0;
+    let speed_ok = opts.speed.is_finite() && opts.speed >= 0.0;
+    if !(batch_ok && speed_ok) {
         return Err("--batch-s must be positive and --speed at least 0".into());
     }
     let file = liftwatch::input::Input::open(input).map_err(|e| e.to_string())?;

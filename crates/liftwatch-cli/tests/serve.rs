@@ -42,10 +42,15 @@ struct Server {
 
 impl Server {
     fn start(data: &Path, listen: &str, token: Option<&str>) -> Server {
+        Server::start_with(data, listen, token, &[])
+    }
+
+    fn start_with(data: &Path, listen: &str, token: Option<&str>, extra: &[&str]) -> Server {
         let mut cmd = Command::new(BIN);
         cmd.args(["serve", "--data"])
             .arg(data)
             .args(["--listen", listen])
+            .args(extra)
             .env_remove("LIFTWATCH_TOKEN")
             .stdin(Stdio::null())
             .stdout(Stdio::null())
@@ -241,7 +246,15 @@ fn a_stream_killed_and_restarted_gives_the_rows_of_a_batch_run() {
     eprintln!("prepared in {:.1} s", t0.elapsed().as_secs_f64());
 
     let data = dir.path("data");
-    let mut server = Server::start(&data, "127.0.0.1:0", Some(TOKEN));
+    // The first server checkpoints every 7 batches, the restarted one at its defaults (2 s or
+    // 500 batches): the outputs must not depend on it.
+    let config = dir.file("serve.toml", b"checkpoint_every_batches = 7\n");
+    let mut server = Server::start_with(
+        &data,
+        "127.0.0.1:0",
+        Some(TOKEN),
+        &["--config", config.to_str().unwrap()],
+    );
     let port = server.port;
     let body = std::fs::read(&model).unwrap();
     let (st, reply) = server.req(

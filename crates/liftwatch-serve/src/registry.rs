@@ -879,3 +879,54 @@ fn prom(v: f64) -> String {
         "-Inf".into()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_body_without_header_and_json_lines_give_the_same_readings() {
+        let with =
+            parse_telemetry(b"time,signal,value\n1,speed,0.5\n2,door,1\n", false, 10).unwrap();
+        let without = parse_telemetry(b"1,speed,0.5\n2,door,1\n", false, 10).unwrap();
+        let json = parse_telemetry(
+            b"{\"time\":1,\"signal\":\"speed\",\"value\":0.5}\n{\"time\":\"2\",\"signal\":\"door\",\"value\":1}\n",
+            true,
+            10,
+        )
+        .unwrap();
+        assert_eq!(with.readings.len(), 2);
+        assert_eq!(
+            format!("{:?}", with.readings),
+            format!("{:?}", without.readings)
+        );
+        assert_eq!(
+            format!("{:?}", with.readings),
+            format!("{:?}", json.readings)
+        );
+    }
+
+    #[test]
+    fn bad_rows_are_counted_with_the_line_of_the_body_as_sent() {
+        let p = parse_telemetry(b"1,speed,0\nx,speed,1\n2,speed,0\n", false, 10).unwrap();
+        assert_eq!((p.readings.len(), p.bad, p.first_bad_line), (2, 1, Some(2)));
+        assert!(!p.first_bad_reason.unwrap().starts_with("line"));
+        let p = parse_telemetry(
+            b"{\"time\":1}\n{\"time\":1,\"signal\":\"speed\",\"value\":0}\n",
+            true,
+            10,
+        )
+        .unwrap();
+        assert_eq!((p.readings.len(), p.bad, p.first_bad_line), (1, 1, Some(1)));
+    }
+
+    #[test]
+    fn too_many_rows_or_no_good_row_is_refused() {
+        let e = parse_telemetry(b"1,speed,0\n2,speed,0\n3,speed,0\n", false, 2).unwrap_err();
+        assert_eq!(e.0, StatusCode::PAYLOAD_TOO_LARGE);
+        let e = parse_telemetry(b"garbage\n", false, 10).unwrap_err();
+        assert_eq!(e.0, StatusCode::BAD_REQUEST);
+        let e = parse_telemetry(b"1,warp,0\n", false, 10).unwrap_err();
+        assert!(e.1.contains("unknown signals"), "{}", e.1);
+    }
+}

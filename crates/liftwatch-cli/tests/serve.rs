@@ -16,6 +16,11 @@ use serde_json::Value;
 
 const BIN: &str = env!("CARGO_BIN_EXE_liftwatch");
 
+/// The server binary of the load test: `LIFTWATCH_BIN` (a release build), else this profile's.
+fn server_bin() -> String {
+    std::env::var("LIFTWATCH_BIN").unwrap_or_else(|_| BIN.to_string())
+}
+
 /// The write token of the cases.
 const TOKEN: &str = "test-token-7f3a";
 
@@ -46,7 +51,7 @@ impl Server {
     }
 
     fn start_with(data: &Path, listen: &str, token: Option<&str>, extra: &[&str]) -> Server {
-        let mut cmd = Command::new(BIN);
+        let mut cmd = Command::new(server_bin());
         cmd.args(["serve", "--data"])
             .arg(data)
             .args(["--listen", listen])
@@ -617,4 +622,233 @@ fn bad_input_is_refused_with_a_4xx_and_changes_nothing() {
     let (st, body) = ro.req("POST", "/api/v1/elevators/a/telemetry", Some("x"), good);
     assert_eq!(st, 403, "{body}");
     assert!(body.contains("without a token"), "{body}");
+}
+
+/// A number from the environment, or `default`.
+fn env_num(name: &str, default: f64) -> f64 {
+    std::env::var(name)
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(default)
+}
+
+/// `liftwatch_NAME{elevator="ID"} VALUE` lines of a metrics text, per elevator.
+fn metric(text: &str, name: &str) -> std::collections::HashMap<String, f64> {
+    let prefix = format!("{name}{{elevator=\"");
+    text.lines()
+        .filter_map(|l| {
+            let rest = l.strip_prefix(&prefix)?;
+            let (id, v) = rest.split_once("\"} ")?;
+            Some((id.to_string(), v.parse().ok()?))
+        })
+        .collect()
+}
+
+/// The load test of issue 10: N elevators (`LIFTWATCH_LOAD_ELEVATORS`, 1000) at 1 Hz for
+/// `LIFTWATCH_LOAD_SECONDS` (600) of wall time, each sending 10 s of a simulated raw log every
+/// 10 s, on loopback, with a model each. Reports the ingest-to-visible latency (from a batch's
+/// 200 to the checkpoint that stores its outputs, polled every 250 ms), the server's memory per
+/// elevator, and checks that every elevator's rows were all applied. Run with a release server:
+/// `LIFTWATCH_BIN=target/release/liftwatch cargo test -p liftwatch-cli --test serve -- --ignored --nocapture load`.
+#[test]
+#[ignore = "10 minutes of wall time"]
+fn load_many_elevators_at_one_hertz() {
+    use liftwatch_serve::replay::{sender_for, SendError};
+    let n = env_num("LIFTWATCH_LOAD_ELEVATORS", 1000.0) as usize;
+    let seconds = env_num("LIFTWATCH_LOAD_SECONDS", 600.0);
+    /// Seconds of log per batch, and of wall time between two batches of one elevator.
+    const PERIOD_S: f64 = 10.0;
+    /// Sender threads, each with its own keep-alive connection.
+    const THREADS: usize = 16;
+    let dir = Dir::new("serve-load");
+    let s = |p: &Path| p.to_str().unwrap().to_string();
+    let (healthy, model) = (dir.path("healthy"), dir.path("model.json"));
+    run(&[
+        "simulate",
+        "--out",
+        &s(&healthy),
+        "--days",
+        "1",
+        "--seed",
+        "5",
+        "-q",
+    ]);
+    run(&[
+        "fit",
+        "--input",
+        &s(&healthy.join("raw.csv")),
+        "--elevator",
+        &s(&healthy.join("elevator.toml")),
+        "--out",
+        &s(&model),
+        "--epochs",
+        "150",
+        "-q",
+    ]);
+    let text = std::fs::read_to_string(healthy.join("raw.csv")).unwrap();
+    let mut batches: Vec<String> = Vec::new();
+    let mut start = f64::NAN;
+    for r in text.lines().skip(1) {
+        let t: f64 = r.split(',').next().unwrap().parse().unwrap();
+        if batches.is_empty() || t >= start + PERIOD_S {
+            batches.push("time,signal,value\n".into());
+            start = t;
+        }
+        let b = batches.last_mut().unwrap();
+        b.push_str(r);
+        b.push('\n');
+    }
+    let per_elevator = ((seconds / PERIOD_S) as usize).min(batches.len());
+    let batches = std::sync::Arc::new(batches[..per_elevator].to_vec());
+    let rows_each: usize = batches.iter().map(|b| b.lines().count() - 1).sum();
+
+    let server = Server::start_with(
+        &dir.path("data"),
+        "127.0.0.1:0",
+        Some(TOKEN),
+        &[
+            "--config",
+            dir.file("load.toml", b"max_elevators = 5000\n")
+                .to_str()
+                .unwrap(),
+        ],
+    );
+    let rss = |pid: u32| -> f64 {
+        let st = std::fs::read_to_string(format!("/proc/{pid}/status")).unwrap_or_default();
+        st.lines()
+            .find_map(|l| l.strip_prefix("VmRSS:"))
+            .and_then(|v| v.trim().trim_end_matches("kB").trim().parse::<f64>().ok())
+            .unwrap_or(f64::NAN)
+    };
+    let rss_before = rss(server.child.id());
+    let body = std::fs::read(&model).unwrap();
+    for i in 0..n {
+        let (st, reply) = server.req(
+            "POST",
+            &format!("/api/v1/elevators/e{i}/models"),
+            Some(TOKEN),
+            &body,
+        );
+        assert_eq!(st, 201, "{reply}");
+    }
+    eprintln!("{n} elevators, {per_elevator} batches of {PERIOD_S} s each, {rows_each} rows each");
+
+    let url = server.url();
+    let t0 = Instant::now();
+    let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    // The probe: applied seq per elevator, every 250 ms, with the time it was seen.
+    let probe = {
+        let (stop, port) = (stop.clone(), server.port);
+        std::thread::spawn(move || {
+            let mut seen: Vec<(f64, std::collections::HashMap<String, f64>)> = Vec::new();
+            while !stop.load(std::sync::atomic::Ordering::Relaxed) {
+                let (_, text) = request(port, "GET", "/metrics", None, b"", "text/plain");
+                seen.push((
+                    t0.elapsed().as_secs_f64(),
+                    metric(&text, "liftwatch_applied_seq"),
+                ));
+                std::thread::sleep(Duration::from_millis(250));
+            }
+            seen
+        })
+    };
+    let senders: Vec<_> = (0..THREADS)
+        .map(|k| {
+            let (batches, url) = (batches.clone(), url.clone());
+            std::thread::spawn(move || {
+                let mut sender = sender_for(&url, Some(TOKEN.to_string())).unwrap();
+                // (elevator, seq, time of the 200)
+                let mut done: Vec<(usize, i64, f64)> = Vec::new();
+                let mine: Vec<usize> = (k..n).step_by(THREADS).collect();
+                let mut plan: Vec<(f64, usize, usize)> = Vec::new();
+                for &i in &mine {
+                    for b in 0..batches.len() {
+                        let due = b as f64 * PERIOD_S + i as f64 * PERIOD_S / n as f64;
+                        plan.push((due, i, b));
+                    }
+                }
+                plan.sort_by(|a, b| a.0.total_cmp(&b.0));
+                let mut late = 0.0f64;
+                for (due, i, b) in plan {
+                    let now = t0.elapsed().as_secs_f64();
+                    if due > now {
+                        std::thread::sleep(Duration::from_secs_f64(due - now));
+                    }
+                    late = late.max(t0.elapsed().as_secs_f64() - due);
+                    let id = format!("e{i}");
+                    let reply = loop {
+                        match sender.send(&id, batches[b].as_bytes()) {
+                            Ok(r) => break r,
+                            Err(SendError::Retry(e)) => {
+                                eprintln!("retry {id}: {e}");
+                                std::thread::sleep(Duration::from_millis(100));
+                            }
+                            Err(SendError::Fatal(e)) => panic!("{id}: {e}"),
+                        }
+                    };
+                    assert_eq!(reply.bad, 0);
+                    done.push((i, reply.seq, t0.elapsed().as_secs_f64()));
+                }
+                (done, late)
+            })
+        })
+        .collect();
+    let mut done = Vec::new();
+    let mut worst_late = 0.0f64;
+    for h in senders {
+        let (d, late) = h.join().unwrap();
+        done.extend(d);
+        worst_late = worst_late.max(late);
+    }
+    let sent_s = t0.elapsed().as_secs_f64();
+    settle(&server);
+    std::thread::sleep(Duration::from_millis(500));
+    stop.store(true, std::sync::atomic::Ordering::Relaxed);
+    let seen = probe.join().unwrap();
+    let rss_after = rss(server.child.id());
+
+    // Latency: from a batch's 200 to the first probe that saw its seq applied.
+    let mut lat: Vec<f64> = done
+        .iter()
+        .filter_map(|(i, seq, t_ok)| {
+            let id = format!("e{i}");
+            seen.iter()
+                .find(|(t, m)| *t >= *t_ok && m.get(&id).is_some_and(|&a| a >= *seq as f64))
+                .map(|(t, _)| t - t_ok)
+        })
+        .collect();
+    assert_eq!(lat.len(), done.len(), "every batch was seen applied");
+    lat.sort_by(f64::total_cmp);
+    let q = |p: f64| lat[((lat.len() - 1) as f64 * p).round() as usize];
+    let metrics = server.req("GET", "/metrics", None, b"").1;
+    let ingested = metric(&metrics, "liftwatch_rows_ingested_total");
+    let samples = metric(&metrics, "liftwatch_samples_total");
+    let late = metric(&metrics, "liftwatch_rows_late_total");
+    for i in 0..n {
+        let id = format!("e{i}");
+        assert_eq!(
+            ingested.get(&id).copied(),
+            Some(rows_each as f64),
+            "{id}: rows stored"
+        );
+        assert_eq!(
+            samples.get(&id),
+            samples.get("e0"),
+            "{id}: the same samples as e0"
+        );
+        assert_eq!(late.get(&id).copied(), Some(0.0), "{id}: late rows");
+    }
+    eprintln!(
+        "{} batches ({:.0}/s) in {sent_s:.0} s, senders at most {worst_late:.2} s behind; \
+         ingest-to-visible latency median {:.2} s, p99 {:.2} s, max {:.2} s; \
+         server memory {:.0} MB ({:.1} KB per elevator); {} samples per elevator, none lost",
+        done.len(),
+        done.len() as f64 / sent_s,
+        q(0.5),
+        q(0.99),
+        lat[lat.len() - 1],
+        rss_after / 1024.0,
+        (rss_after - rss_before) / n as f64,
+        samples.get("e0").copied().unwrap_or(0.0),
+    );
 }

@@ -849,6 +849,12 @@ pub fn metrics_text(s: &Shared, depths: &HashMap<String, (i64, f64)>) -> String 
         &|id| snaps.get(id).map(|x| x.counts.samples as f64),
     );
     family(
+        "liftwatch_applied_seq",
+        "Last batch seq applied and checkpointed: outputs are stored up to it.",
+        "gauge",
+        &|id| snaps.get(id).map(|x| x.applied_seq as f64),
+    );
+    family(
         "liftwatch_queue_depth",
         "Batches stored, not yet applied and checkpointed.",
         "gauge",

@@ -107,7 +107,11 @@ CREATE TABLE IF NOT EXISTS maintenance (
 /// SQLite's error, as one line.
 pub fn open(dir: &Path) -> Result<Connection, String> {
     let path = dir.join(DB_FILE);
-    let conn = Connection::open(&path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let mut conn = Connection::open(&path).map_err(|e| format!("{}: {e}", path.display()))?;
+    // Every transaction takes the write lock when it begins: a deferred one that reads first
+    // and writes later fails at once (SQLITE_BUSY, no waiting) when another connection wrote
+    // in between.
+    conn.set_transaction_behavior(rusqlite::TransactionBehavior::Immediate);
     conn.busy_timeout(BUSY_TIMEOUT).map_err(|e| e.to_string())?;
     // WAL: readers never block the writer; synchronous=FULL: a commit is on disk when it
     // returns (a confirmed request survives a power cut, not only a kill).

@@ -64,6 +64,12 @@ impl ApiError {
 
 impl IntoResponse for ApiError {
     fn into_response(self) -> Response {
+        if self.0.is_server_error() {
+            log(
+                "error",
+                &format!("{}: {}", self.0.as_u16(), one_line(&self.1)),
+            );
+        }
         let body = json!({ "error": one_line(&self.1) });
         (self.0, Json(body)).into_response()
     }

@@ -2,6 +2,7 @@
 //!
 //! ```toml
 //! listen = "127.0.0.1:8080"
+//! data = "/var/lib/liftwatch"   # `--data` wins over it
 //! reorder_window_s = 30          # how late a row may come and still be sorted in
 //! checkpoint_every_s = 2.0       # wall time between two checkpoints of the worker
 //! checkpoint_every_batches = 500 # or this many batches, whichever comes first
@@ -88,6 +89,8 @@ pub struct ElevatorInfo {
 pub struct Config {
     /// Address to listen on.
     pub listen: String,
+    /// Data directory, when `--data` does not give it.
+    pub data: Option<std::path::PathBuf>,
     /// Reorder window of the aligner (s).
     pub reorder_window_s: f64,
     /// Wall time between checkpoints (s).
@@ -112,6 +115,7 @@ impl Default for Config {
     fn default() -> Self {
         Config {
             listen: DEFAULT_LISTEN.into(),
+            data: None,
             reorder_window_s: DEFAULT_REORDER_WINDOW_S,
             checkpoint_every_s: DEFAULT_CHECKPOINT_EVERY_S,
             checkpoint_every_batches: DEFAULT_CHECKPOINT_EVERY_BATCHES,
@@ -143,8 +147,17 @@ impl Config {
             ));
         }
         let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
-        let cfg: Config = toml::from_str(&text)
-            .map_err(|e| format!("{}: {}", path.display(), one_line(&e.to_string())))?;
+        let cfg: Config = toml::from_str(&text).map_err(|e| {
+            let line = e.span().map(|s| {
+                text.as_bytes()[..s.start.min(text.len())]
+                    .iter()
+                    .filter(|&&b| b == b'\n')
+                    .count()
+                    + 1
+            });
+            let at = line.map_or(String::new(), |l| format!(" line {l}:"));
+            format!("{}:{at} {}", path.display(), one_line(e.message()))
+        })?;
         cfg.validate()
             .map_err(|e| format!("{}: {e}", path.display()))?;
         Ok(cfg)

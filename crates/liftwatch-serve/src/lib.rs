@@ -150,6 +150,13 @@ pub fn serve(opts: ServeOptions) -> Result<(), String> {
         )
     })?;
     let writer = store::open(&opts.data)?;
+    let interrupted = store::fail_interrupted_fits(&writer).map_err(|e| e.to_string())?;
+    if interrupted > 0 {
+        log(
+            "warn",
+            &format!("{interrupted} fits were interrupted by the last stop: marked failed"),
+        );
+    }
     for e in &opts.cfg.elevators {
         let id = e.id.clone().unwrap_or_default();
         let mut info = e.clone();

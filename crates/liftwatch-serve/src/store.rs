@@ -229,9 +229,47 @@ pub fn prune(conn: &Connection, keep_days: f64) -> rusqlite::Result<usize> {
     )
 }
 
+/// Marks the fits a stop interrupted (`fitting` at start-up: their thread is gone) as
+/// `failed`; returns how many.
+///
+/// # Errors
+/// SQLite's error.
+pub fn fail_interrupted_fits(conn: &Connection) -> rusqlite::Result<usize> {
+    conn.execute(
+        "UPDATE models SET status = 'failed', note = COALESCE(note, '') || '; interrupted: the service stopped during the fit'
+         WHERE status = 'fitting'",
+        [],
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn pruning_removes_only_old_applied_batches() {
+        let dir = std::env::temp_dir().join(format!("liftwatch-store-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let conn = open(&dir).unwrap();
+        put_elevator(&conn, "a", "{}").unwrap();
+        let r = [(Signal::Speed, 1.0, 0.0)];
+        let first = append_batch(&conn, "a", &r).unwrap();
+        append_batch(&conn, "a", &r).unwrap();
+        conn.execute(
+            "INSERT INTO checkpoints (elevator, applied_seq, rebaseline_gen, aligner, counters, updated) VALUES ('a', ?1, 0, '{}', '{}', 0)",
+            [first],
+        )
+        .unwrap();
+        assert_eq!(prune(&conn, 1.0).unwrap(), 0, "younger than a day");
+        assert_eq!(prune(&conn, 0.0).unwrap(), 1, "only the applied one");
+        let left: i64 = conn
+            .query_row("SELECT MIN(seq) FROM batches", [], |r| r.get(0))
+            .unwrap();
+        assert!(left > first);
+        drop(conn);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 
     #[test]
     fn batches_round_trip_bit_for_bit_and_damage_is_seen() {

@@ -12,9 +12,9 @@ pub const TOKEN_ENV: &str = "LIFTWATCH_TOKEN";
 /// Flags of `liftwatch serve`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// Data directory: the store `liftwatch.db` (created if missing).
+    /// Data directory: the store `liftwatch.db` (created if missing); else the config's `data`.
     #[arg(long)]
-    pub data: PathBuf,
+    pub data: Option<PathBuf>,
     /// Address to listen on (port 0: a free one, printed); default the config's, else
     /// 127.0.0.1:8080.
     #[arg(long)]
@@ -55,11 +55,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         cfg.keep_raw_days = d;
     }
     cfg.validate().map_err(anyhow::Error::msg)?;
+    let Some(data) = args.data.or_else(|| cfg.data.clone()) else {
+        anyhow::bail!("--data DIR is required (or `data` in the --config file)");
+    };
     let token = token(args.token_file.as_ref())?;
-    serve(ServeOptions {
-        data: args.data,
-        cfg,
-        token,
-    })
-    .map_err(anyhow::Error::msg)
+    serve(ServeOptions { data, cfg, token }).map_err(anyhow::Error::msg)
 }

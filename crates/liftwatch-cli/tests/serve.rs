@@ -385,6 +385,12 @@ fn a_stream_killed_and_restarted_gives_the_rows_of_a_batch_run() {
         );
         assert_eq!(g["elevator"], "lift-1");
     }
+    // The verdict is the text `liftwatch status --json` prints, its field order included.
+    let (_, raw_summary) = server.req("GET", "/api/v1/elevators/lift-1", None, b"");
+    assert!(
+        raw_summary.contains("\"verdict\":{\"level\":"),
+        "{raw_summary}"
+    );
     let summary = server.get_json("/api/v1/elevators");
     let e = &summary["elevators"][0];
     assert_eq!(e["id"], "lift-1");

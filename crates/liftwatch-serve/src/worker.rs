@@ -93,8 +93,8 @@ impl Counters {
 pub struct Snapshot {
     /// Version of the model the monitor runs, if any.
     pub model_version: Option<i64>,
-    /// The verdict JSON (`liftwatch status --json`), `None` without a model.
-    pub verdict: Option<serde_json::Value>,
+    /// The verdict JSON text, as `liftwatch status --json` prints it; `None` without a model.
+    pub verdict: Option<String>,
     /// Level (`normal`, `advisory`, `alarm`).
     pub level: String,
     /// Combined risk R (NaN without a model).
@@ -563,7 +563,7 @@ impl Worker {
                 let st = mon.state_ref();
                 let v = Verdict::new(m, st);
                 (
-                    serde_json::to_value(&v).ok(),
+                    serde_json::to_string(&v).ok(),
                     st.level().as_str().to_string(),
                     v.risk[0],
                     st.trips,

@@ -448,6 +448,19 @@ fn registry_and_shutdown(mut server: Server, model: &[u8]) {
     assert!(reply.contains("\"labelled_events\":1"), "{reply}");
     let events = server.get_json(&format!("{id}/events"));
     assert_eq!(events["events"][0]["label"], "confirmed");
+    // After the rollback and the repair the monitor runs afresh (no trip counted yet) on the
+    // model rolled back to; the labelled event is no longer open.
+    let t0 = Instant::now();
+    loop {
+        let e = server.get_json(id);
+        if e["trips"] == 0 && e["verdict"]["level"] == "normal" {
+            assert_eq!(e["model_version"], 1);
+            assert_eq!(e["open_events"], 0);
+            break;
+        }
+        assert!(t0.elapsed() < PATIENCE, "no re-baseline: {e}");
+        std::thread::sleep(Duration::from_millis(100));
+    }
     assert_eq!(
         server.get_json(&format!("{id}/maintenance"))["visits"][0]["finding"],
         "confirmed"

@@ -330,6 +330,10 @@ async fn healthz(State(s): State<Arc<Shared>>) -> ApiResult {
     })
     .await?;
     let depth: i64 = pending.values().map(|(n, _)| n).sum();
+    if !s.worker_alive.load(Ordering::Relaxed) {
+        let body = json!({"status": "worker stopped", "queue_depth": depth});
+        return Ok((StatusCode::SERVICE_UNAVAILABLE, Json(body)).into_response());
+    }
     Ok(Json(json!({"status": "ok", "queue_depth": depth})).into_response())
 }
 

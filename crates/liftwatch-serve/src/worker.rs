@@ -186,6 +186,16 @@ pub fn trip_line(row: &MonitorRow) -> Option<String> {
 /// The worker's loop; returns at [`Msg::Stop`] (or when every sender is gone) after a final
 /// checkpoint.
 pub fn run(mut conn: Connection, shared: Arc<Shared>, rx: Receiver<Msg>) {
+    /// Clears [`Shared::worker_alive`] however the worker ends, a panic included.
+    struct Alive(Arc<Shared>);
+    impl Drop for Alive {
+        fn drop(&mut self) {
+            self.0
+                .worker_alive
+                .store(false, std::sync::atomic::Ordering::Relaxed);
+        }
+    }
+    let _alive = Alive(shared.clone());
     let mut w = Worker {
         runtimes: HashMap::new(),
         models: HashMap::new(),

@@ -385,6 +385,12 @@ fn a_stream_killed_and_restarted_gives_the_rows_of_a_batch_run() {
         );
         assert_eq!(g["elevator"], "lift-1");
     }
+    // The verdict is the text `liftwatch status --json` prints, its field order included.
+    let (_, raw_summary) = server.req("GET", "/api/v1/elevators/lift-1", None, b"");
+    assert!(
+        raw_summary.contains("\"verdict\":{\"level\":"),
+        "{raw_summary}"
+    );
     let summary = server.get_json("/api/v1/elevators");
     let e = &summary["elevators"][0];
     assert_eq!(e["id"], "lift-1");
@@ -442,6 +448,19 @@ fn registry_and_shutdown(mut server: Server, model: &[u8]) {
     assert!(reply.contains("\"labelled_events\":1"), "{reply}");
     let events = server.get_json(&format!("{id}/events"));
     assert_eq!(events["events"][0]["label"], "confirmed");
+    // After the rollback and the repair the monitor runs afresh (no trip counted yet) on the
+    // model rolled back to; the labelled event is no longer open.
+    let t0 = Instant::now();
+    loop {
+        let e = server.get_json(id);
+        if e["trips"] == 0 && e["verdict"]["level"] == "normal" {
+            assert_eq!(e["model_version"], 1);
+            assert_eq!(e["open_events"], 0);
+            break;
+        }
+        assert!(t0.elapsed() < PATIENCE, "no re-baseline: {e}");
+        std::thread::sleep(Duration::from_millis(100));
+    }
     assert_eq!(
         server.get_json(&format!("{id}/maintenance"))["visits"][0]["finding"],
         "confirmed"

@@ -255,8 +255,15 @@ fn num(x: f64) -> Value {
     serde_json::Number::from_f64(x).map_or(Value::Null, Value::Number)
 }
 
-/// The Summary of the contract.
-fn summary(id: &str, info: &ElevatorInfo, snap: Option<&Snapshot>, open_events: i64) -> Value {
+/// The Summary of the contract as JSON text, with `extra` fields (the model) beside. The
+/// verdict is spliced in as the text `liftwatch status --json` prints, field order included.
+fn summary(
+    id: &str,
+    info: &ElevatorInfo,
+    snap: Option<&Snapshot>,
+    open_events: i64,
+    extra: Option<(&str, Value)>,
+) -> String {
     let snap = snap.cloned().unwrap_or_default();
     let c = &snap.counters;
     let last = c.last_time;
@@ -273,7 +280,7 @@ fn summary(id: &str, info: &ElevatorInfo, snap: Option<&Snapshot>, open_events: 
     } else {
         Value::Null
     };
-    json!({
+    let mut v = json!({
         "id": id,
         "name": info.name,
         "group": info.group,
@@ -291,8 +298,14 @@ fn summary(id: &str, info: &ElevatorInfo, snap: Option<&Snapshot>, open_events: 
         "open_events": open_events,
         "level": snap.level,
         "applied_seq": snap.applied_seq,
-        "verdict": snap.verdict,
-    })
+    });
+    if let Some((key, value)) = extra {
+        v[key] = value;
+    }
+    let text = v.to_string();
+    let body = text.strip_suffix('}').unwrap_or(&text);
+    let verdict = snap.verdict.as_deref().unwrap_or("null");
+    format!("{body},\"verdict\":{verdict}}}")
 }
 
 /// Unlabelled advisory and alarm events per elevator.
@@ -317,6 +330,10 @@ async fn healthz(State(s): State<Arc<Shared>>) -> ApiResult {
     })
     .await?;
     let depth: i64 = pending.values().map(|(n, _)| n).sum();
+    if !s.worker_alive.load(Ordering::Relaxed) {
+        let body = json!({"status": "worker stopped", "queue_depth": depth});
+        return Ok((StatusCode::SERVICE_UNAVAILABLE, Json(body)).into_response());
+    }
     Ok(Json(json!({"status": "ok", "queue_depth": depth})).into_response())
 }
 
@@ -342,15 +359,9 @@ async fn list(State(s): State<Arc<Shared>>, headers: HeaderMap) -> ApiResult {
                 .map(|(id, info)| {
                     let info: ElevatorInfo = serde_json::from_str(&info).unwrap_or_default();
                     let risk = snaps.get(&id).map_or(f64::NAN, |x| x.risk);
-                    (
-                        risk,
-                        summary(
-                            &id,
-                            &info,
-                            snaps.get(&id),
-                            open.get(&id).copied().unwrap_or(0),
-                        ),
-                    )
+                    let open = open.get(&id).copied().unwrap_or(0);
+                    let text = summary(&id, &info, snaps.get(&id), open, None);
+                    (risk, id, text)
                 })
                 .collect::<Vec<_>>())
         })
@@ -360,12 +371,11 @@ async fn list(State(s): State<Arc<Shared>>, headers: HeaderMap) -> ApiResult {
     // Highest risk first; elevators without a risk last, then by id.
     out.sort_by(|a, b| {
         let key = |x: f64| if x.is_nan() { f64::NEG_INFINITY } else { x };
-        key(b.0)
-            .total_cmp(&key(a.0))
-            .then_with(|| a.1["id"].as_str().cmp(&b.1["id"].as_str()))
+        key(b.0).total_cmp(&key(a.0)).then_with(|| a.1.cmp(&b.1))
     });
-    let list: Vec<Value> = out.into_iter().map(|x| x.1).collect();
-    Ok(Json(json!({ "elevators": list })).into_response())
+    let list: Vec<String> = out.into_iter().map(|x| x.2).collect();
+    let body = format!("{{\"elevators\":[{}]}}", list.join(","));
+    Ok(([(header::CONTENT_TYPE, "application/json")], body).into_response())
 }
 
 async fn one(
@@ -400,13 +410,18 @@ async fn one(
             .snapshots
             .read()
             .unwrap_or_else(std::sync::PoisonError::into_inner);
-        let mut v = summary(&id, &info, snaps.get(&id), open);
-        v["model"] = model.unwrap_or(Value::Null);
-        Ok(v)
+        let model = model.unwrap_or(Value::Null);
+        Ok(summary(
+            &id,
+            &info,
+            snaps.get(&id),
+            open,
+            Some(("model", model)),
+        ))
     })
     .await
     .map_err(|e| refused(&s, e))?;
-    Ok(Json(v).into_response())
+    Ok(([(header::CONTENT_TYPE, "application/json")], v).into_response())
 }
 
 async fn put_elevator(

@@ -26,7 +26,7 @@ use std::collections::HashMap;
 use std::io::Write;
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::AtomicU64;
+use std::sync::atomic::{AtomicBool, AtomicU64};
 use std::sync::mpsc::Sender;
 use std::sync::{Arc, Mutex, RwLock};
 
@@ -63,6 +63,8 @@ pub struct Shared {
     pub ingest: Mutex<HashMap<String, IngestStats>>,
     /// Requests refused (4xx), all routes.
     pub refused: AtomicU64,
+    /// False once the worker thread has ended (a panic included): `/healthz` then says 503.
+    pub worker_alive: AtomicBool,
     /// To the worker.
     pub worker: Mutex<Sender<Msg>>,
 }
@@ -175,6 +177,7 @@ pub fn serve(opts: ServeOptions) -> Result<(), String> {
         snapshots: RwLock::new(HashMap::new()),
         ingest: Mutex::new(HashMap::new()),
         refused: AtomicU64::new(0),
+        worker_alive: AtomicBool::new(true),
         worker: Mutex::new(tx.clone()),
     });
     let worker_shared = shared.clone();

@@ -93,8 +93,8 @@ impl Counters {
 pub struct Snapshot {
     /// Version of the model the monitor runs, if any.
     pub model_version: Option<i64>,
-    /// The verdict JSON (`liftwatch status --json`), `None` without a model.
-    pub verdict: Option<serde_json::Value>,
+    /// The verdict JSON text, as `liftwatch status --json` prints it; `None` without a model.
+    pub verdict: Option<String>,
     /// Level (`normal`, `advisory`, `alarm`).
     pub level: String,
     /// Combined risk R (NaN without a model).
@@ -186,6 +186,16 @@ pub fn trip_line(row: &MonitorRow) -> Option<String> {
 /// The worker's loop; returns at [`Msg::Stop`] (or when every sender is gone) after a final
 /// checkpoint.
 pub fn run(mut conn: Connection, shared: Arc<Shared>, rx: Receiver<Msg>) {
+    /// Clears [`Shared::worker_alive`] however the worker ends, a panic included.
+    struct Alive(Arc<Shared>);
+    impl Drop for Alive {
+        fn drop(&mut self) {
+            self.0
+                .worker_alive
+                .store(false, std::sync::atomic::Ordering::Relaxed);
+        }
+    }
+    let _alive = Alive(shared.clone());
     let mut w = Worker {
         runtimes: HashMap::new(),
         models: HashMap::new(),
@@ -563,7 +573,7 @@ impl Worker {
                 let st = mon.state_ref();
                 let v = Verdict::new(m, st);
                 (
-                    serde_json::to_value(&v).ok(),
+                    serde_json::to_string(&v).ok(),
                     st.level().as_str().to_string(),
                     v.risk[0],
                     st.trips,

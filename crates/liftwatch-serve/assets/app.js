@@ -114,6 +114,7 @@
   /** A time given as seconds with an optional `*_text` sibling. */
   function whenText(t, text, clock) {
     if (typeof text === 'string' && text) return rfcText(text);
+    if (!fin(t)) return 'no data yet';
     return instantText(t, clock);
   }
 
@@ -578,6 +579,7 @@
     // y grid and labels
     parts.push('<g class="grid">');
     let yt = [];
+    let stepDecimals = 0;
     if (o.yLog) {
       for (let e = Math.floor(Y0); e <= Math.ceil(Y1); e++) {
         const v = 10 ** e;
@@ -586,9 +588,10 @@
       if (yt.length > 6) yt = yt.filter((_, i) => i % 2 === 0);
     } else {
       const st = niceStep(o.y1 - o.y0, Math.max(2, Math.floor(ph / 45)));
+      stepDecimals = Math.max(0, -Math.floor(Math.log10(st) + 1e-9));
       for (let v = Math.ceil(o.y0 / st) * st; v <= o.y1 + st * 1e-6; v += st) yt.push(Math.abs(v) < st * 1e-9 ? 0 : v);
     }
-    const yl = (v) => (o.yLog ? (v >= 1e4 || v < 1e-2 ? `1e${Math.round(Math.log10(v))}` : sig(v)) : (o.yFmt ? o.yFmt(v) : sig(v)).replace('-', '\u2212'));
+    const yl = (v) => (o.yLog ? (v >= 1e4 || v < 1e-2 ? `1e${Math.round(Math.log10(v))}` : sig(v)) : v.toFixed(stepDecimals).replace('-', '\u2212'));
     for (const v of yt) {
       const y = sy(v).toFixed(1);
       parts.push(`<line x1="${m.l}" x2="${m.l + pw}" y1="${y}" y2="${y}"/>`);
@@ -624,6 +627,7 @@
     // series
     parts.push(`<g clip-path="url(#${o.id}-clip)">`);
     const gap = o.gapS || Infinity;
+    const marks = [];
     (o.series || []).forEach((s, si) => {
       const pts = thin(s.points.filter((p) => fin(p[0]) && fin(p[1])), sx, gap);
       const segs = [];
@@ -649,12 +653,13 @@
         for (const p of real) {
           const x = sx(p[0]);
           if (x >= next) {
-            parts.push(marker(s.marker, x, clampY(sy(p[1])), s.color));
+            marks.push(marker(s.marker, x, clampY(sy(p[1])), s.color));
             next = x + every;
           }
         }
       }
     });
+    parts.push(...marks);
     parts.push('</g></svg>');
     return parts.join('');
   }
@@ -721,7 +726,8 @@
 
   function riskChart(rows, v, width, clock, id) {
     const xs = rows.map(rowTime).filter(fin);
-    if (xs.length < 2) return '<p class="muted">Fewer than two trips monitored yet: no risk chart.</p>';
+    if (!v && !xs.length) return '<p class="muted">Not monitored: without an active model no risk is computed.</p>';
+    if (xs.length < 2) return `<p class="muted">${xs.length ? 'One trip' : 'No trip'} monitored yet: the chart starts at the second.</p>`;
     const x0 = Math.min(...xs);
     const x1 = Math.max(...xs);
     const adv = v && Array.isArray(v.risk) ? v.risk[1] : NaN;
@@ -763,7 +769,8 @@
 
   function driftCharts(rows, v, width, clock, id) {
     const xs = rows.map(rowTime).filter(fin);
-    if (xs.length < 2) return '<p class="muted">Fewer than two trips monitored yet: no drift chart.</p>';
+    if (!v && !xs.length) return '<p class="muted">Not monitored: without an active model no drift is estimated.</p>';
+    if (xs.length < 2) return `<p class="muted">${xs.length ? 'One trip' : 'No trip'} monitored yet: the chart starts at the second.</p>`;
     const x0 = Math.min(...xs);
     const x1 = Math.max(...xs);
     const narrow = width < 700;
@@ -791,7 +798,6 @@
       const svg = vals.length ? lineChart({
         id: `${id}-${i}`, width: pwid, height: 200, x0, x1, clock, yLog: false,
         y0: lo - pad2, y1: hi + pad2, yTitle: p.unit === 'N' ? 'N' : '%',
-        yFmt: (y) => (Math.abs(y) >= 100 || p.unit === 'N' ? y.toFixed(0) : sig(y)),
         series: [{ label: p.title, color: MODE_COLOR[p.mode], width: 1.6, points: pts }],
         hlines: hl, gapS: 2 * DAY, aria: `${p.title} drift over time`,
       }) : '<p class="muted small">no value yet (the regression is not determined)</p>';
@@ -874,8 +880,11 @@
       '</tbody></table></div>';
   }
 
-  function eventsTable(events, clock) {
-    if (!events.length) return '<p class="muted">No events: the level has not changed since monitoring began.</p>';
+  function eventsTable(events, clock, monitored) {
+    if (!events.length) {
+      return monitored ? '<p class="muted">No events: the level has not changed since monitoring began.</p>'
+        : '<p class="muted">No events: not monitored yet (no active model).</p>';
+    }
     const sorted = events.slice().sort((a, b) => (b.time ?? 0) - (a.time ?? 0));
     const known = new Set(['elevator', 'seq', 'time', 'time_text', 'level', 'mode', 'risk', 'label',
       'risk_motor', 'risk_brake', 'risk_friction', 'kd_drift_pct', 'kd_drift_se_pct', 'friction_drift_pct',
@@ -1017,7 +1026,7 @@
     return `<section class="card verdict lv-${esc(lv)}" id="verdict"><h2>Verdict ${badge(lv)}</h2>` +
       `<p class="headline">${esc(headline)}</p><dl>` +
       `<dt>Level</dt><dd>${esc(lv)}${fin(v.since) && lv !== 'normal' ? `, the change began ${esc(dayText(v.since, clock))}` : ''}</dd>` +
-      `<dt>Mode</dt><dd>${esc(lv === 'normal' ? 'none (normal)' : `${v.mode}: ${SUBSYSTEM[v.mode] || v.mode}`)}</dd>` +
+      `<dt>Mode</dt><dd>${esc(lv === 'normal' ? 'none (normal)' : (SUBSYSTEM[v.mode] && SUBSYSTEM[v.mode] !== v.mode ? `${v.mode} (${SUBSYSTEM[v.mode]})` : v.mode))}</dd>` +
       `<dt>Drifts</dt><dd>${esc((v.drifts || []).map(driftText).join('; '))}</dd>` +
       `<dt>Inspect</dt><dd>${esc(v.inspect)}</dd>` +
       `<dt>Forecast</dt><dd>${esc(forecastSentence(v, clock))}</dd>` +
@@ -1033,10 +1042,11 @@
       '<section class="card"><h2>Drift in physical units</h2><div id="ev-drift"></div>' +
       '<p class="chart-note">Per trip, as the monitor re-identifies it; dashed lines: the drift that, held, brings the mode\u2019s risk to its level.</p></section>' +
       '<section class="card"><h2>Peers</h2><div id="ev-peers"></div></section>' +
-      '<div class="grid2"><section class="card"><h2>Events</h2><div id="ev-events"></div></section>' +
-      '<section class="card"><h2>Usage</h2><div id="ev-usage"></div></section></div>' +
+      '<section class="card"><h2>Events</h2><div id="ev-events"></div></section>' +
+      '<div class="grid2"><section class="card"><h2>Usage</h2><div id="ev-usage"></div></section>' +
+      '<section class="card"><h2>Maintenance visits</h2><div id="ev-visits"></div></section></div>' +
       '<div class="grid2"><section class="card"><h2>Model</h2><div id="ev-model"></div></section>' +
-      '<section class="card"><h2>Model versions</h2><div id="ev-models"></div><h2 style="margin-top:1rem">Maintenance visits</h2><div id="ev-visits"></div></section></div>';
+      '<section class="card"><h2>Model versions</h2><div id="ev-models"></div></section></div>';
     const el = (k) => document.getElementById(`ev-${k}`);
     const enc = encodeURIComponent(id);
     let rows = [];
@@ -1050,7 +1060,7 @@
       put(el('risk'), riskChart(rows, summary.verdict, w, clock, 'risk'));
       put(el('drift'), driftCharts(rows, summary.verdict, el('drift').clientWidth || 900, clock, 'drift'));
       const usage = el('usage');
-      const base = `<p><b class="num">${esc(num(summary.trips_per_day, 0))}</b> trips/day \u00b7 <b class="num">${esc(num(summary.door_cycles_per_day, 0))}</b> door cycles/day</p>` +
+      const base = !fin(summary.trips_per_day) && !fin(summary.door_cycles_per_day) ? '<p class="muted">No usage yet: no trips stored.</p>' : `<p><b class="num">${esc(num(summary.trips_per_day, 0))}</b> trips/day \u00b7 <b class="num">${esc(num(summary.door_cycles_per_day, 0))}</b> door cycles/day</p>` +
         `<p class="small muted">${esc(summary.trips ?? 'n/a')} trips and ${esc(summary.samples ?? 'n/a')} samples stored; last data ${esc(whenText(summary.last_time, summary.last_time_text, clock))} (lag ${esc(durationText(summary.lag_s))}).</p>`;
       put(usage, base + (rows.length ? `<h3>Trips per day</h3>${tripsPerDayChart(rows, (usage.clientWidth || 400), clock)}` : ''));
     }
@@ -1100,7 +1110,7 @@
       } else setError('risk', risk.reason.message);
       drawCharts();
 
-      if (events.status === 'fulfilled') { setError('events', null); put(el('events'), eventsTable(events.value.events || [], clock)); } else { setError('events', events.reason.message); if (first) put(el('events'), '<p class="muted">not available</p>'); }
+      if (events.status === 'fulfilled') { setError('events', null); put(el('events'), eventsTable(events.value.events || [], clock, !!s.verdict)); } else { setError('events', events.reason.message); if (first) put(el('events'), '<p class="muted">not available</p>'); }
       put(el('model'), s.model
         ? `<p>Version <b>v${esc(s.model.version)}</b>${s.model.source ? ` from ${esc(s.model.source)}` : ''}${s.model.created != null ? `, created ${esc(createdText(s.model, clock))}` : ''}.` +
           `${s.model.fingerprint ? ` <span class="small muted">fingerprint <code>${esc(String(s.model.fingerprint).slice(0, 16))}</code></span>` : ''}</p>${paramTable(s.model.parameters)}`

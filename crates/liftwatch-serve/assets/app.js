@@ -420,7 +420,7 @@
       : '<span class="muted">no data yet</span>';
     const usage = fin(s.trips_per_day) || fin(s.door_cycles_per_day)
       ? `${esc(num(s.trips_per_day, 0))} trips/day` +
-        `<br><span class="small muted">${esc(num(s.door_cycles_per_day, 0))} door cycles/day</span>`
+        `<br class="wide-only"><span class="small muted"> ${esc(num(s.door_cycles_per_day, 0))} door cycles/day</span>`
       : '<span class="muted">\u2014</span>';
     const events = fin(s.open_events) && s.open_events > 0
       ? `<br><span class="small">${s.open_events} open event${s.open_events > 1 ? 's' : ''}</span>` : '';
@@ -429,10 +429,10 @@
       `<td class="name" data-label="Elevator"><a href="${elevatorHref(s.id)}">${esc(name)}</a>` +
       `${sub ? `<br><span class="small muted">${sub}</span>` : ''}${events}</td>` +
       `<td class="why" data-label="Why">${why}</td>` +
-      `<td class="wide" data-label="Forecast">${fc}</td>` +
-      `<td class="wide" data-label="Inspect">${inspect}</td>` +
-      `<td data-label="Last data">${last}</td>` +
-      `<td data-label="Usage">${usage}</td>` +
+      `<td class="fc" data-label="Forecast">${fc}</td>` +
+      `<td class="inspect wide" data-label="Inspect">${inspect}</td>` +
+      `<td class="last" data-label="Last data">${last}</td>` +
+      `<td class="usage wide" data-label="Usage">${usage}</td>` +
       '</tr>';
   }
 
@@ -442,7 +442,7 @@
       '<label class="filter"><span class="small muted">Filter</span>' +
       '<input id="filter" type="search" placeholder="id, name, group, level or mode" autocomplete="off"></label></div>' +
       '<p class="small muted" id="fleet-note">Sorted by risk, highest first: the elevator at the top needs a visit first. ' +
-      'Times are each elevator\u2019s local time (zone shown); drifts are physical (Kd and friction in %, brake drag in N) \u00b1 one standard error.</p>' +
+      '<span class="more">Times are each elevator\u2019s local time (zone shown); drifts are physical (Kd and friction in %, brake drag in N) \u00b1 one standard error.</span></p>' +
       '<div id="fleet-body"></div>';
     const $counts = document.getElementById('counts');
     const $body = document.getElementById('fleet-body');
@@ -1122,7 +1122,15 @@
       stamp(errors.size === 0);
     }
 
-    const stop = poller(load, ELEVATOR_REFRESH_MS);
+    const stopPoll = poller(load, ELEVATOR_REFRESH_MS);
+    // Charts are drawn at their box's width: redraw when it changes (rotation, window size).
+    let drawnAt = 0;
+    const ro = typeof ResizeObserver === 'function' ? new ResizeObserver(() => {
+      const w = el('risk') ? el('risk').clientWidth : 0;
+      if (w && w !== drawnAt) { drawnAt = w; drawCharts(); }
+    }) : null;
+    if (ro) ro.observe(el('risk'));
+    const stop = () => { stopPoll(); if (ro) ro.disconnect(); };
     return { stop, resize: drawCharts };
   }
 

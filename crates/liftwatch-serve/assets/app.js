@@ -8,6 +8,10 @@
   const FLEET_REFRESH_MS = 5000;
   const ELEVATOR_REFRESH_MS = 10000;
   const DAY = 86400;
+  /** The elevator page's charts cover at most this many days back from the last data. */
+  const RISK_WINDOW_DAYS = 90;
+  /** Trip rows per request (the server caps a page at 100 000). */
+  const RISK_PAGE = 20000;
 
   const $app = document.getElementById('app');
   const $err = document.getElementById('error');
@@ -200,8 +204,10 @@
       };
     }
     if (reached) return { text: `${shortLevel(reached.c.name)} reached${who(reached.f)}`, range: '', days: 0 };
-    if (beyond) return { text: 'no level within the horizon', range: '', days: Infinity };
-    return { text: 'no rising trend', range: '', days: Infinity };
+    const nextName = modes.length && modes[0].crossings && modes[0].crossings[skip]
+      ? `${shortLevel(modes[0].crossings[skip].name)}: ` : '';
+    if (beyond) return { text: `${nextName}not within the horizon`, range: '', days: Infinity };
+    return { text: `${nextName}no rising trend`, range: '', days: Infinity };
   }
 
   /** The forecast sentence of one mode, as the CLI writes it. */
@@ -860,12 +866,12 @@
     if (Array.isArray(params)) {
       return params.map((p) => ({
         name: p.name, value: p.value, se: p.std_error ?? p.se, unit: p.unit,
-        note: p.determined === false && p.prior_sd != null ? 'set by its prior' : '',
+        note: p.determined === false ? 'not determined by the data (its prior)' : '',
       }));
     }
     return Object.entries(params).map(([name, p]) => {
       if (p && typeof p === 'object') {
-        return { name, value: p.value, se: p.std_error ?? p.se, unit: p.unit, note: p.determined === false && p.prior_sd != null ? 'set by its prior' : '' };
+        return { name, value: p.value, se: p.std_error ?? p.se, unit: p.unit, note: p.determined === false ? 'not determined by the data (its prior)' : '' };
       }
       return { name, value: p, se: null, unit: '', note: '' };
     });
@@ -1038,7 +1044,7 @@
     $app.innerHTML = `<p class="crumbs"><a href="#/">\u2190 Fleet</a></p><div id="ev-head"><h1>${esc(id)}</h1></div>` +
       '<div id="ev-verdict"></div>' +
       '<section class="card"><h2>Risk over time</h2><div id="ev-risk"><p class="muted">Loading\u2026</p></div>' +
-      '<p class="chart-note">One point per trip. Combined R solid; per-mode risks dashed with markers (they can coincide); shaded spans: the level at each trip.</p></section>' +
+      `<p class="chart-note">One point per trip, the last ${RISK_WINDOW_DAYS} days at most.` + ' Combined R solid; per-mode risks dashed with markers (they can coincide); shaded spans: the level at each trip.</p></section>' +
       '<section class="card"><h2>Drift in physical units</h2><div id="ev-drift"></div>' +
       '<p class="chart-note">Per trip, as the monitor re-identifies it; dashed lines: the drift that, held, brings the mode\u2019s risk to its level.</p></section>' +
       '<section class="card"><h2>Peers</h2><div id="ev-peers"></div></section>' +
@@ -1065,12 +1071,29 @@
       put(usage, base + (rows.length ? `<h3>Trips per day</h3>${tripsPerDayChart(rows, (usage.clientWidth || 400), clock)}` : ''));
     }
 
+    /** The trip rows since the last one held (at first the last RISK_WINDOW_DAYS), page by page. */
+    async function fetchRows(lastTime) {
+      let from = rows.length ? rows[rows.length - 1].start
+        : fin(lastTime) ? lastTime - RISK_WINDOW_DAYS * DAY : null;
+      for (let page = 0; page < 50; page++) {
+        const q = `?limit=${RISK_PAGE}${fin(from) ? `&from=${from}` : ''}`;
+        const j = await api(`/elevators/${enc}/risk${q}`);
+        const got = Array.isArray(j.rows) ? j.rows : [];
+        const last = rows.length ? rows[rows.length - 1].start : -Infinity;
+        const fresh = got.filter((r) => fin(r.start) && r.start > last);
+        rows = rows.concat(fresh);
+        if (got.length < RISK_PAGE || !fresh.length) break;
+        from = rows[rows.length - 1].start;
+      }
+      return rows;
+    }
+
     async function load() {
-      const sumP = api(`/elevators/${enc}`);
-      const from = rows.length ? rows[rows.length - 1].start : null;
-      const riskP = api(`/elevators/${enc}/risk${fin(from) ? `?from=${from}` : ''}`);
-      const [sum, risk, events, models, visits, fleet] = await Promise.allSettled([
-        sumP, riskP, api(`/elevators/${enc}/events`), api(`/elevators/${enc}/models`),
+      const sum = await api(`/elevators/${enc}`).then((value) => ({ status: 'fulfilled', value }),
+        (reason) => ({ status: 'rejected', reason }));
+      const lastTime = sum.status === 'fulfilled' ? sum.value.last_time : null;
+      const [risk, events, models, visits, fleet] = await Promise.allSettled([
+        fetchRows(lastTime), api(`/elevators/${enc}/events`), api(`/elevators/${enc}/models`),
         api(`/elevators/${enc}/maintenance`), api('/elevators'),
       ]);
       if (sum.status === 'rejected') {
@@ -1099,15 +1122,8 @@
       put(el('head'), `<div class="ev-head"><h1>${esc(displayName(s))}</h1>${badge(levelOf(s))}</div><div class="facts">${facts.map((f) => `<span>${f}</span>`).join('')}</div>`);
       put(el('verdict'), verdictSection(s));
 
-      if (risk.status === 'fulfilled') {
-        setError('risk', null);
-        const got = Array.isArray(risk.value.rows) ? risk.value.rows : [];
-        if (!rows.length) rows = got;
-        else {
-          const last = rows[rows.length - 1].start;
-          rows = rows.concat(got.filter((r) => !(r.start <= last)));
-        }
-      } else setError('risk', risk.reason.message);
+      if (risk.status === 'fulfilled') setError('risk', null);
+      else setError('risk', risk.reason.message);
       drawCharts();
 
       if (events.status === 'fulfilled') { setError('events', null); put(el('events'), eventsTable(events.value.events || [], clock, !!s.verdict)); } else { setError('events', events.reason.message); if (first) put(el('events'), '<p class="muted">not available</p>'); }

@@ -1,6 +1,7 @@
 //! The dashboard of `liftwatch serve` in a real browser: the server started on loopback with
 //! a fresh data directory, loaded with one small simulated elevator whose drive degrades (fit
-//! on its healthy day, the model uploaded, its degraded days replayed as fast as accepted)
+//! on its healthy day, the model uploaded, its degraded days replayed as fast as accepted on
+//! a calendar clock in a zone of UTC+01:00)
 //! and a second of the same group without a model; then Debian's headless Chromium loads the
 //! fleet page and the elevator page, their DOM is checked (the fleet row, its level, the
 //! drift in physical units; the verdict, the charts, the peers) and screenshots at a laptop's
@@ -22,6 +23,9 @@ const TOKEN: &str = "dashboard-test-token";
 /// The elevator that degrades, and its peer without a model.
 const CAR: &str = "car-1";
 const PEER: &str = "car-2";
+/// 2026-03-02 00:00 UTC: the degraded days are replayed on a calendar clock (the simulator's
+/// starts at 0), so that the pages show dates; whole days keep the hours of the traffic.
+const START_S: f64 = 1_772_409_600.0;
 
 fn chromium() -> Option<PathBuf> {
     ["chromium", "chromium-browser", "google-chrome"]
@@ -234,6 +238,25 @@ fn png_size(path: &Path) -> (u32, u32) {
     (be(16), be(20))
 }
 
+/// Copies a raw `time,signal,value` log with its times moved by `shift` seconds.
+fn shift_times(from: &Path, to: &Path, shift: f64) {
+    let text = std::fs::read_to_string(from).expect("the simulated log is readable");
+    let mut out = String::with_capacity(text.len() + text.len() / 4);
+    for (i, line) in text.lines().enumerate() {
+        match line.split_once(',') {
+            Some((t, rest)) if i > 0 => {
+                let t: f64 = t.parse().expect("a time in seconds");
+                out.push_str(&format!("{:.3},{rest}\n", t + shift));
+            }
+            _ => {
+                out.push_str(line);
+                out.push('\n');
+            }
+        }
+    }
+    std::fs::write(to, out).expect("the case dir is writable");
+}
+
 /// The summary of elevator `id` in the fleet list, if listed.
 fn summary(fleet: &serde_json::Value, id: &str) -> Option<serde_json::Value> {
     fleet["elevators"]
@@ -266,10 +289,13 @@ fn the_dashboard_shows_which_elevator_needs_a_visit_in_chromium() {
     liftwatch(&["simulate", "--out", s(&worn), "--days", "2", "--seed", "7", "--scenario", "motor",
         "--onset-days", "0.5", "--ramp", "step", "--severity", "2"], min(2));
 
+    let raw = dir.path("worn-calendar.csv");
+    shift_times(&worn.join("raw.csv"), &raw, START_S);
+
     let server = Server::start(&dir.path("data"));
     for (id, name) in [(CAR, "Test bank, car 1"), (PEER, "Test bank, car 2")] {
         let body = serde_json::json!({
-            "name": name, "group": "Test bank",
+            "name": name, "group": "Test bank", "timezone": "+01:00",
             "rated_load_kg": 1000.0, "rated_speed_mps": 1.6, "floors": 16,
         });
         let (status, text) = server.request(
@@ -291,7 +317,7 @@ fn the_dashboard_shows_which_elevator_needs_a_visit_in_chromium() {
         "model upload: {status} {text}"
     );
     #[rustfmt::skip]
-    liftwatch(&["replay", "--input", s(&worn.join("raw.csv")), "--id", CAR, "--to", &server.url,
+    liftwatch(&["replay", "--input", s(&raw), "--id", CAR, "--to", &server.url,
         "--speed", "0"], min(10));
 
     // The server analyses what it accepted in the background: wait for the advisory.
@@ -344,6 +370,14 @@ fn the_dashboard_shows_which_elevator_needs_a_visit_in_chromium() {
         "its level, in words: {car_row}"
     );
     assert!(car_row.contains("Test bank, car 1"), "its name: {car_row}");
+    assert!(
+        car_row.contains("2026-03-03"),
+        "the last data's date: {car_row}"
+    );
+    assert!(
+        car_row.contains("UTC+01:00"),
+        "in the elevator's zone: {car_row}"
+    );
     assert!(car_row.contains("drive"), "the subsystem: {car_row}");
     assert!(car_row.contains("Kd +"), "the drift, in Kd %: {car_row}");
     assert!(
@@ -374,9 +408,10 @@ fn the_dashboard_shows_which_elevator_needs_a_visit_in_chromium() {
     let chart = dom.find("<polyline").expect("the charts have lines");
     assert!(verdict < chart, "the verdict comes before the charts");
     assert!(
-        dom.contains(&format!("{} (as of day", level.to_uppercase())),
-        "the verdict's headline, on the data clock's days"
+        dom.contains(&format!("{} (as of 2026-03-0", level.to_uppercase())),
+        "the verdict's headline, dated"
     );
+    assert!(dom.contains("since 2 Mar 2026"), "since when");
     assert!(dom.contains("advisory level"), "the risk chart's levels");
     assert!(dom.contains("Test bank, car 2"), "the peer is compared");
     assert!(dom.contains("Model versions"), "the model registry");

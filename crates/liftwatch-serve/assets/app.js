@@ -892,7 +892,7 @@
         : '<p class="muted">No events: not monitored yet (no active model).</p>';
     }
     const sorted = events.slice().sort((a, b) => (b.time ?? 0) - (a.time ?? 0));
-    const known = new Set(['elevator', 'seq', 'time', 'time_text', 'level', 'mode', 'risk', 'label',
+    const known = new Set(['elevator', 'id', 'seq', 'time', 'time_text', 'level', 'mode', 'risk', 'label',
       'risk_motor', 'risk_brake', 'risk_friction', 'kd_drift_pct', 'kd_drift_se_pct', 'friction_drift_pct',
       'friction_drift_se_pct', 'brake_drag_n', 'brake_drag_se_n', 'trips', 'implausible_trips',
       'cusum_ratio', 'cusum_signature', 'cusum_size', 'cusum_trips']);
@@ -929,10 +929,11 @@
 
   function modelsTable(models, clock) {
     if (!models.length) return '<p class="muted">No model versions yet.</p>';
-    return '<div class="table-wrap"><table class="data"><thead><tr><th>version</th><th>created</th><th>source</th><th>note</th><th>change vs active</th></tr></thead><tbody>' +
+    return '<div class="table-wrap"><table class="data"><thead><tr><th>version</th><th>created</th><th>source</th><th>note</th><th>status</th><th>change vs active</th></tr></thead><tbody>' +
       models.slice().sort((a, b) => (b.version ?? 0) - (a.version ?? 0)).map((mv) =>
         `<tr${mv.active ? ' class="this"' : ''}><td class="num">v${esc(mv.version)}${mv.active ? ' <span class="pill">active</span>' : ''}</td>` +
         `<td class="nowrap">${esc(createdText(mv, clock))}</td><td>${esc(mv.source || '')}</td><td>${esc(mv.note || '')}</td>` +
+        `<td>${esc(mv.status || (mv.active ? 'active' : ''))}</td>` +
         `<td class="small">${esc(mv.active ? '' : changesText(mv.changes))}</td></tr>`).join('') + '</tbody></table></div>';
   }
 
@@ -945,11 +946,11 @@
 
   function visitsTable(visits, clock) {
     if (!visits.length) return '<p class="muted">No maintenance visits recorded. Record one with <code>POST /api/v1/elevators/ID/maintenance</code>: it labels the open events and can start a re-baseline.</p>';
-    return '<div class="table-wrap"><table class="data"><thead><tr><th>when</th><th>work</th><th>finding</th><th>re-baseline</th></tr></thead><tbody>' +
+    return '<div class="table-wrap"><table class="data"><thead><tr><th>when</th><th>work</th><th>finding</th><th>re-baseline</th><th>events labelled</th></tr></thead><tbody>' +
       visits.slice().sort((a, b) => (b.time ?? 0) - (a.time ?? 0)).map((x) =>
         `<tr><td class="nowrap">${esc(whenText(x.time, x.time_text, clock))}</td><td>${esc(x.work || '')}</td>` +
         `<td>${x.finding === 'confirmed' ? '<span class="label-confirmed">confirmed</span>' : x.finding === 'not_found' ? '<span class="label-not_found">not found</span>' : esc(x.finding || '')}</td>` +
-        `<td>${x.rebaseline ? 'yes' : 'no'}</td></tr>`).join('') + '</tbody></table></div>';
+        `<td>${x.rebaseline ? 'yes' : 'no'}</td><td class="num">${fin(x.labelled_events) ? x.labelled_events : ''}</td></tr>`).join('') + '</tbody></table></div>';
   }
 
   function peersOf(me, fleet) {

@@ -1,12 +1,12 @@
 //! The dashboard of `liftwatch serve` in a real browser: the server started on loopback with
 //! a fresh data directory, loaded with one small simulated elevator whose drive degrades (fit
-//! on its healthy day, the model uploaded, its degraded days replayed as fast as accepted on
-//! a calendar clock in a zone of UTC+01:00)
-//! and a second of the same group without a model; then Debian's headless Chromium loads the
-//! fleet page and the elevator page, their DOM is checked (the fleet row, its level, the
-//! drift in physical units; the verdict, the charts, the peers) and screenshots at a laptop's
-//! (1366×768) and a phone's (390×844) size are written under `target/dashboard-screenshots/`,
-//! their paths printed. Skipped, saying why, on a machine without `chromium`.
+//! on its healthy day, the model uploaded, its degraded days replayed as fast as accepted, on
+//! a calendar clock in a zone of UTC+01:00) and a second of the same group without a model;
+//! then Debian's headless Chromium loads the fleet page and the elevator page, their DOM is
+//! checked (the fleet row, its level, the drift in physical units, the date and zone; the
+//! verdict, the charts, the peers) and screenshots at a laptop's (1366×768) and a phone's
+//! (390×844) size are written under `target/dashboard-screenshots/`, their paths printed.
+//! Skipped, saying why, on a machine without `chromium`.
 
 mod common;
 

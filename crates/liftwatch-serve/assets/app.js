@@ -981,7 +981,64 @@
     return a.length % 2 ? a[h] : (a[h - 1] + a[h]) / 2;
   }
 
-  function peersSection(me, fleet) {
+  /**
+   * One drift across the peers: a row per elevator, its value as a point with ± one SE, this
+   * car first and filled; zero and this car's advisory level (in the same unit) as lines.
+   */
+  function peerStrip(all, me, p, width) {
+    const items = all.map((s) => ({ s, d: driftOf(s, p.mode) })).filter((x) => x.d && fin(x.d.value));
+    if (!items.length) return '';
+    const rowH = 22;
+    const W = Math.max(200, Math.round(width));
+    const m = { l: Math.round(Math.min(150, W * 0.38)), r: 12, t: 6, b: 30 };
+    const maxChars = Math.floor((m.l - 10) / 7);
+    const clip = (t) => (t.length > maxChars ? `${t.slice(0, Math.max(1, maxChars - 1))}\u2026` : t);
+    const H = m.t + m.b + rowH * items.length;
+    const fc = me.verdict && me.verdict.forecast && Array.isArray(me.verdict.forecast.modes)
+      ? me.verdict.forecast.modes.find((f) => f.mode === p.mode) : null;
+    const advC = fc && (fc.crossings || []).find((c) => c.name === 'advisory level');
+    const adv = advC && fin(advC.threshold) ? advC.threshold : NaN;
+    let lo = 0;
+    let hi = 0;
+    for (const { d } of items) {
+      const se = fin(d.se) ? d.se : 0;
+      lo = Math.min(lo, d.value - se);
+      hi = Math.max(hi, d.value + se);
+    }
+    if (fin(adv)) hi = Math.max(hi, adv);
+    const padX = (hi - lo) * 0.08 || 1;
+    lo -= padX;
+    hi += padX;
+    const pw = W - m.l - m.r;
+    const sx = (x) => m.l + ((x - lo) / (hi - lo)) * pw;
+    const out = [`<svg class="chart" width="${W}" height="${H}" viewBox="0 0 ${W} ${H}" role="img" aria-label="${esc(p.title)} of this car and its peers">`];
+    const st = niceStep(hi - lo, Math.max(2, Math.floor(pw / 70)));
+    const dec = Math.max(0, -Math.floor(Math.log10(st) + 1e-9));
+    for (let v = Math.ceil(lo / st) * st; v <= hi; v += st) {
+      const x = sx(v).toFixed(1);
+      out.push(`<line x1="${x}" x2="${x}" y1="${m.t}" y2="${H - m.b}" stroke="#e3e7ec"/>`);
+      out.push(`<text x="${x}" y="${H - m.b + 15}" text-anchor="middle" font-size="12">${esc((Math.abs(v) < st / 1e6 ? 0 : v).toFixed(dec).replace('-', '\u2212'))}</text>`);
+    }
+    out.push(`<text x="${m.l + pw / 2}" y="${H - 3}" text-anchor="middle" font-size="12" fill="#5b6470">${esc(p.title)} drift (${p.unit}) \u00b1 one SE</text>`);
+    out.push(`<line x1="${sx(0).toFixed(1)}" x2="${sx(0).toFixed(1)}" y1="${m.t}" y2="${H - m.b}" stroke="#8b95a1"/>`);
+    if (fin(adv)) {
+      const x = sx(adv).toFixed(1);
+      out.push(`<line x1="${x}" x2="${x}" y1="${m.t}" y2="${H - m.b}" stroke="#8a5000" stroke-width="1.5" stroke-dasharray="8 4"><title>advisory level of this car</title></line>`);
+    }
+    items.forEach(({ s, d }, i) => {
+      const y = m.t + rowH * i + rowH / 2;
+      const mine = s.id === me.id;
+      const color = mine ? MODE_COLOR[p.mode] : '#4b5563';
+      const se = fin(d.se) ? d.se : 0;
+      out.push(`<line x1="${sx(d.value - se).toFixed(1)}" x2="${sx(d.value + se).toFixed(1)}" y1="${y}" y2="${y}" stroke="${color}" stroke-width="${mine ? 2.5 : 1.5}"/>`);
+      out.push(`<circle cx="${sx(d.value).toFixed(1)}" cy="${y}" r="${mine ? 5 : 4}" fill="${mine ? color : '#fff'}" stroke="${color}" stroke-width="1.6"><title>${esc(displayName(s))}: ${esc(driftText(d))}</title></circle>`);
+      out.push(`<text x="${m.l - 8}" y="${y + 4}" font-size="12" text-anchor="end"${mine ? ' font-weight="700"' : ''}>${esc(clip(displayName(s)))}<title>${esc(displayName(s))}</title></text>`);
+    });
+    out.push('</svg>');
+    return out.join('');
+  }
+
+  function peersSection(me, fleet, width) {
     if (!fleet) return '<p class="muted">The fleet could not be loaded for the comparison.</p>';
     const { peers, basis } = peersOf(me, fleet);
     if (!peers.length) return `<p class="muted">No peers: no other elevator has ${esc(basis)}.</p>`;
@@ -996,8 +1053,14 @@
         lines.push(`${p.title}: this car ${signed(mine.value, k)} ${p.unit}, the peers\u2019 median ${signed(med, k)} ${p.unit}`);
       }
     }
+    const shown = all.slice(0, 12);
+    const narrow = width < 700;
+    const sw = narrow ? width : (width - 32) / 3;
+    const strips = DRIFT_PANELS.map((p) => peerStrip(shown, me, p, sw)).filter(Boolean);
     return `<p>Compared with ${peers.length} elevator${peers.length > 1 ? 's' : ''} of ${esc(basis)}.` +
       (lines.length ? ` ${esc(lines.join('; '))}.` : '') + '</p>' +
+      (strips.length ? `<div class="panels">${strips.map((x) => `<div>${x}</div>`).join('')}</div>` +
+        `<p class="chart-note">Filled and first: this car; dashed: this car\u2019s advisory level for the drift${all.length > 12 ? '; the 11 peers at highest risk shown' : ''}.</p>` : '') +
       '<div class="table-wrap"><table class="data"><thead><tr><th>elevator</th><th>level</th><th>mode</th><th>Kd</th><th>friction</th><th>brake drag</th><th>R / advisory</th><th>trips/day</th><th>last data</th></tr></thead><tbody>' +
       all.map((s) => {
         const v = s.verdict;
@@ -1058,6 +1121,7 @@
     const enc = encodeURIComponent(id);
     let rows = [];
     let summary = null;
+    let fleetList = null;
     let first = true;
 
     function drawCharts() {
@@ -1066,6 +1130,7 @@
       const w = el('risk').clientWidth || 900;
       put(el('risk'), riskChart(rows, summary.verdict, w, clock, 'risk'));
       put(el('drift'), driftCharts(rows, summary.verdict, el('drift').clientWidth || 900, clock, 'drift'));
+      put(el('peers'), peersSection(summary, fleetList, el('peers').clientWidth || 900));
       const usage = el('usage');
       const base = !fin(summary.trips_per_day) && !fin(summary.door_cycles_per_day) ? '<p class="muted">No usage yet: no trips stored.</p>' : `<p><b class="num">${esc(num(summary.trips_per_day, 0))}</b> trips/day \u00b7 <b class="num">${esc(num(summary.door_cycles_per_day, 0))}</b> door cycles/day</p>` +
         `<p class="small muted">${esc(summary.trips ?? 'n/a')} trips and ${esc(summary.samples ?? 'n/a')} samples stored; last data ${esc(whenText(summary.last_time, summary.last_time_text, clock))} (lag ${esc(durationText(summary.lag_s))}).</p>`;
@@ -1125,7 +1190,6 @@
 
       if (risk.status === 'fulfilled') setError('risk', null);
       else setError('risk', risk.reason.message);
-      drawCharts();
 
       if (events.status === 'fulfilled') { setError('events', null); put(el('events'), eventsTable(events.value.events || [], clock, !!s.verdict)); } else { setError('events', events.reason.message); if (first) put(el('events'), '<p class="muted">not available</p>'); }
       put(el('model'), s.model
@@ -1134,7 +1198,8 @@
         : '<p class="muted">No active model.</p>');
       if (models.status === 'fulfilled') { setError('models', null); put(el('models'), modelsTable(models.value.models || [], clock)); } else { setError('models', models.reason.message); if (first) put(el('models'), '<p class="muted">not available</p>'); }
       if (visits.status === 'fulfilled') { setError('visits', null); put(el('visits'), visitsTable(visits.value.visits || [], clock)); } else { setError('visits', visits.reason.message); if (first) put(el('visits'), '<p class="muted">not available</p>'); }
-      if (fleet.status === 'fulfilled') { setError('peers', null); put(el('peers'), peersSection(s, fleet.value.elevators || [])); } else { setError('peers', fleet.reason.message); put(el('peers'), peersSection(s, null)); }
+      if (fleet.status === 'fulfilled') { setError('peers', null); fleetList = fleet.value.elevators || []; } else { setError('peers', fleet.reason.message); }
+      drawCharts();
       first = false;
       stamp(errors.size === 0);
     }

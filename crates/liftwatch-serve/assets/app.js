@@ -135,7 +135,9 @@
 
   const levelOf = (s) => (s && s.verdict && s.verdict.level) || 'none';
   const levelWord = (lv) => (lv === 'none' ? 'no model' : lv);
-  const badge = (lv) => `<span class="badge lv-${esc(lv)}">${esc(levelWord(lv))}</span>`;
+  /** A model but no verdict yet: the monitor has not watched a sample. */
+  const waiting = (s) => s && !s.verdict && s.model_version != null;
+  const badge = (lv, s) => `<span class="badge lv-${esc(lv)}">${esc(waiting(s) ? 'no verdict yet' : levelWord(lv))}</span>`;
   const displayName = (s) => (s.name && s.name !== s.id ? s.name : s.id);
   const elevatorHref = (id) => `#/elevator/${encodeURIComponent(id)}`;
 
@@ -401,7 +403,8 @@
     const sub = [name !== s.id ? s.id : null, s.group].filter(Boolean).map(esc).join(' \u00b7 ');
     let why;
     let fc = '<span class="muted">\u2014</span>';
-    let inspect = '<span class="muted">upload a model (<code>liftwatch fit</code>) to start monitoring</span>';
+    let inspect = waiting(s) ? '<span class="muted">wait for the first trips to be watched</span>'
+      : '<span class="muted">upload a model (<code>liftwatch fit</code>) to start monitoring</span>';
     if (v) {
       const hd = headlineDrift(v);
       const since = fin(v.since) ? ` <span class="nowrap">since ${esc(dayText(v.since, clock))}</span>` : '';
@@ -419,7 +422,8 @@
         inspect += `<br><span class="small muted">${v.caveats.length} caveat${v.caveats.length > 1 ? 's' : ''} (see page)</span>`;
       }
     } else {
-      why = '<span class="muted">no active model yet</span>';
+      why = waiting(s) ? `<span class="muted">model v${esc(s.model_version)} active, no data watched yet</span>`
+        : '<span class="muted">no active model yet</span>';
     }
     const last = fin(s.last_time) || s.last_time_text
       ? `${esc(whenText(s.last_time, s.last_time_text, clock))}<br><span class="small muted">lag ${esc(durationText(s.lag_s))}</span>`
@@ -431,7 +435,7 @@
     const events = fin(s.open_events) && s.open_events > 0
       ? `<br><span class="small">${s.open_events} open event${s.open_events > 1 ? 's' : ''}</span>` : '';
     return `<tr class="row-${esc(lv)}" data-id="${esc(s.id)}">` +
-      `<td class="level" data-label="Level">${badge(lv)}${riskBar(v)}</td>` +
+      `<td class="level" data-label="Level">${badge(lv, s)}${riskBar(v)}</td>` +
       `<td class="name" data-label="Elevator"><a href="${elevatorHref(s.id)}">${esc(name)}</a>` +
       `${sub ? `<br><span class="small muted">${sub}</span>` : ''}${events}</td>` +
       `<td class="why" data-label="Why">${why}</td>` +
@@ -1066,7 +1070,7 @@
         const v = s.verdict;
         const rr = riskRatio(v);
         return `<tr${s.id === me.id ? ' class="this"' : ''}><td><a href="${elevatorHref(s.id)}">${esc(displayName(s))}</a>${s.id === me.id ? ' (this one)' : ''}</td>` +
-          `<td>${badge(levelOf(s))}</td><td>${esc(v && v.level !== 'normal' ? (SUBSYSTEM[v.mode] || v.mode) : '\u2014')}</td>` +
+          `<td>${badge(levelOf(s), s)}</td><td>${esc(v && v.level !== 'normal' ? (SUBSYSTEM[v.mode] || v.mode) : '\u2014')}</td>` +
           `<td class="num">${esc(cell(s, 'motor'))}</td><td class="num">${esc(cell(s, 'friction'))}</td><td class="num">${esc(cell(s, 'brake'))}</td>` +
           `<td class="num">${rr === null ? 'n/a' : esc(sig(rr))}</td><td class="num">${esc(num(s.trips_per_day, 0))}</td>` +
           `<td class="small">lag ${esc(durationText(s.lag_s))}</td></tr>`;
@@ -1076,6 +1080,11 @@
   function verdictSection(s) {
     const v = s.verdict;
     const clock = clockOf(s);
+    if (!v && waiting(s)) {
+      return `<section class="card verdict lv-none" id="verdict"><h2>Verdict ${badge('none', s)}</h2>` +
+        `<p class="headline">Model v${esc(s.model_version)} is active; no verdict yet: the monitor has not watched a sample of this elevator.</p>` +
+        `<p>Stream its telemetry (<code>liftwatch replay --input RAW.csv --id ${esc(s.id)} --to ${esc(location.origin)}</code> or <code>POST /api/v1/elevators/${esc(s.id)}/telemetry</code>).</p></section>`;
+    }
     if (!v) {
       return `<section class="card verdict lv-none" id="verdict"><h2>Verdict ${badge('none')}</h2>` +
         '<p class="headline">No active model yet: this elevator is stored but not monitored.</p>' +
@@ -1185,7 +1194,7 @@
         `last data <b>${esc(whenText(s.last_time, s.last_time_text, clock))}</b> (lag ${esc(durationText(s.lag_s))})`,
         clock.known ? `times in <b>${esc(zoneName(clock.off))}</b>` : null,
       ].filter(Boolean);
-      put(el('head'), `<div class="ev-head"><h1>${esc(displayName(s))}</h1>${badge(levelOf(s))}</div><div class="facts">${facts.map((f) => `<span>${f}</span>`).join('')}</div>`);
+      put(el('head'), `<div class="ev-head"><h1>${esc(displayName(s))}</h1>${badge(levelOf(s), s)}</div><div class="facts">${facts.map((f) => `<span>${f}</span>`).join('')}</div>`);
       put(el('verdict'), verdictSection(s));
 
       if (risk.status === 'fulfilled') setError('risk', null);

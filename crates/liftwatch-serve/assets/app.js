@@ -734,12 +734,22 @@
 
   const rowTime = (r) => (fin(r.end) ? r.end : r.start);
 
+  /** Least and greatest of many numbers (no spread: a long history would overflow the stack). */
+  function extent(xs) {
+    let lo = Infinity;
+    let hi = -Infinity;
+    for (const x of xs) {
+      if (x < lo) lo = x;
+      if (x > hi) hi = x;
+    }
+    return [lo, hi];
+  }
+
   function riskChart(rows, v, width, clock, id) {
     const xs = rows.map(rowTime).filter(fin);
     if (!v && !xs.length) return '<p class="muted">Not monitored: without an active model no risk is computed.</p>';
     if (xs.length < 2) return `<p class="muted">${xs.length ? 'One trip' : 'No trip'} monitored yet: the chart starts at the second.</p>`;
-    const x0 = Math.min(...xs);
-    const x1 = Math.max(...xs);
+    const [x0, x1] = extent(xs);
     const adv = v && Array.isArray(v.risk) ? v.risk[1] : NaN;
     const alm = v && Array.isArray(v.risk) ? v.risk[2] : NaN;
     const keys = ['risk', 'risk_motor', 'risk_brake', 'risk_friction'];
@@ -781,8 +791,7 @@
     const xs = rows.map(rowTime).filter(fin);
     if (!v && !xs.length) return '<p class="muted">Not monitored: without an active model no drift is estimated.</p>';
     if (xs.length < 2) return `<p class="muted">${xs.length ? 'One trip' : 'No trip'} monitored yet: the chart starts at the second.</p>`;
-    const x0 = Math.min(...xs);
-    const x1 = Math.max(...xs);
+    const [x0, x1] = extent(xs);
     const narrow = width < 700;
     const pwid = narrow ? width : (width - 32) / 3;
     return '<div class="panels">' + DRIFT_PANELS.map((p, i) => {

@@ -44,6 +44,7 @@
   }
 
   function signed(v, d) {
+    if (!fin(v)) return 'n/a';
     const s = v.toFixed(d);
     return (v >= 0 && !s.startsWith('-') ? '+' : '') + s.replace('-', '\u2212');
   }
@@ -183,7 +184,7 @@
       (f.crossings || []).forEach((c, i) => {
         if (i < skip) return;
         const w = c.when || {};
-        if (w.status === 'at' && fin(w.time)) {
+        if (w.status === 'at' && fin(w.time) && fin(fc.now)) {
           const days = (w.time - fc.now) / DAY;
           if (!best || days < best.days) best = { f, c, days, w };
         } else if (w.status === 'reached') {
@@ -225,6 +226,7 @@
         case 'no_trend': return `${level}: no rising trend`;
         case 'not_within_horizon': return `${level}: not within the forecast horizon`;
         case 'at': {
+          if (!fin(w.time) || !fin(now)) return `${level}: no date`;
           const days = (x) => ((x - now) / DAY).toFixed(0);
           const late = fin(w.late) ? `${days(w.late)} days` : 'beyond the horizon';
           const dates = isCal(w.time)
@@ -243,7 +245,8 @@
     if (!fc || !Array.isArray(fc.modes)) return 'no forecast.';
     const modes = fc.modes
       .filter((f) => f.mode === v.mode || !MACHINE.includes(v.mode))
-      .filter((f) => (f.crossings || []).some((c) => c.when && (c.when.status === 'at' || c.when.status === 'not_within_horizon')));
+      .filter((f) => f.trend && fin(f.trend.slope_per_day))
+      .filter((f) => (f.crossings || []).some((c) => c.when && ((c.when.status === 'at' && fin(c.when.time)) || c.when.status === 'not_within_horizon')));
     if (!modes.length) return 'no drift is rising distinguishably from zero; no level is forecast within the horizon.';
     return modes.map((f) => modeForecastText(f, fc.now, clock)).join(' ');
   }

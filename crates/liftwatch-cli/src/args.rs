@@ -33,6 +33,10 @@ pub enum Command {
     Evaluate(cmd::evaluate::Args),
     /// Write figures (SVG and PNG) and an HTML report about telemetry, read with a fitted model.
     Report(cmd::report::Args),
+    /// Run the service: ingest telemetry over HTTP, monitor every elevator, keep models.
+    Serve(cmd::serve::Args),
+    /// Send a raw telemetry log to a running service, batch by batch.
+    Replay(cmd::replay::Args),
 }
 
 impl Command {
@@ -47,6 +51,8 @@ impl Command {
             Command::Status(a) => cmd::status::run(a).map(|()| Status::Ok),
             Command::Evaluate(a) => cmd::evaluate::run(a).map(|()| Status::Ok),
             Command::Report(a) => cmd::report::run(a).map(|()| Status::Ok),
+            Command::Serve(a) => cmd::serve::run(a).map(|()| Status::Ok),
+            Command::Replay(a) => cmd::replay::run(a).map(|()| Status::Ok),
         }
     }
 }

@@ -1,10 +1,233 @@
-//! Placeholder on the dashboard's branch until the server (branch `h-serve`) is merged: it
-//! keeps the workspace building and checks that the dashboard's files exist. The server's
-//! own `Cargo.toml` and `src/` replace this at the merge.
+//! `liftwatch serve`: the paper's online-analysis and model-management layers (Sec. 4.3) as one
+//! service over the library's pipeline.
+//!
+//! ```text
+//! POST telemetry ─ row parser (ingest) ─ ONE batch in SQLite (WAL), committed ─ 200
+//!                                              │
+//!                       worker thread ─ per elevator, in seq order: Aligner ─ Monitor::push
+//!                                              │
+//!             trips, events + checkpoint (aligner state, monitor state, last seq) in ONE transaction
+//! GET  elevators, risk, events, models, metrics ─ the store and the worker's snapshots
+//! ```
+//!
+//! The modules: [`config`] the settings, [`store`] the database, [`worker`] the streaming
+//! application and checkpoints, [`registry`] the models and maintenance visits, [`api`] the
+//! HTTP routes, [`replay`] the client that sends a raw log to a server. The library
+//! (`liftwatch`) knows nothing of this crate.
 
-/// The dashboard's page, served at `/`.
-pub const INDEX_HTML: &str = include_str!("../assets/index.html");
-/// Its script, served at `/app.js`.
-pub const APP_JS: &str = include_str!("../assets/app.js");
-/// Its style sheet, served at `/style.css`.
-pub const STYLE_CSS: &str = include_str!("../assets/style.css");
+pub mod api;
+pub mod config;
+pub mod registry;
+pub mod replay;
+pub mod store;
+pub mod worker;
+
+use std::collections::HashMap;
+use std::io::Write;
+use std::net::SocketAddr;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::AtomicU64;
+use std::sync::mpsc::Sender;
+use std::sync::{Arc, Mutex, RwLock};
+
+use config::Config;
+use rusqlite::Connection;
+use worker::{Msg, Snapshot};
+
+/// Per-elevator ingest counters, for `/metrics` (since the start of the process).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct IngestStats {
+    /// Requests accepted.
+    pub requests: u64,
+    /// Good rows stored.
+    pub rows: u64,
+    /// Bad rows skipped.
+    pub bad: u64,
+}
+
+/// What the HTTP handlers and the worker share.
+pub struct Shared {
+    /// Settings.
+    pub cfg: Config,
+    /// `--data`.
+    pub data_dir: PathBuf,
+    /// The write token; `None`: writes are refused.
+    pub token: Option<String>,
+    /// The connection of the API's writes (one writer at a time, as SQLite has it).
+    pub writer: Mutex<Connection>,
+    /// Idle read connections.
+    pub readers: Mutex<Vec<Connection>>,
+    /// The worker's snapshots per elevator.
+    pub snapshots: RwLock<HashMap<String, Snapshot>>,
+    /// Ingest counters per elevator.
+    pub ingest: Mutex<HashMap<String, IngestStats>>,
+    /// Requests refused (4xx), all routes.
+    pub refused: AtomicU64,
+    /// To the worker.
+    pub worker: Mutex<Sender<Msg>>,
+}
+
+impl Shared {
+    /// Tells the worker about new work for `id`.
+    pub fn poke(&self, id: &str) {
+        let tx = self
+            .worker
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        // A send fails only once the worker stopped, at shutdown: the batch is stored and
+        // applied at the next start.
+        let _ = tx.send(Msg::Work(id.to_string()));
+    }
+
+    /// Runs `f` with a read connection (reused, or opened).
+    ///
+    /// # Errors
+    /// `f`'s error, or the database's.
+    pub fn read<T>(&self, f: impl FnOnce(&Connection) -> Result<T, String>) -> Result<T, String> {
+        let conn = self
+            .readers
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+            .pop();
+        let conn = match conn {
+            Some(c) => c,
+            None => store::open(&self.data_dir)?,
+        };
+        let out = f(&conn);
+        self.readers
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+            .push(conn);
+        out
+    }
+}
+
+/// Writes one structured log line to stderr: `ts=… level=… msg="…"`.
+pub fn log(level: &str, msg: &str) {
+    let line = format!(
+        "ts={:.3} level={level} msg={}\n",
+        store::now(),
+        serde_json::to_string(msg).unwrap_or_default()
+    );
+    let _ = std::io::stderr().lock().write_all(line.as_bytes());
+}
+
+/// How `serve` was asked to run.
+#[derive(Clone, Debug)]
+pub struct ServeOptions {
+    /// `--data`: the directory of `liftwatch.db`.
+    pub data: PathBuf,
+    /// Settings (the config file's, with `--listen` over it).
+    pub cfg: Config,
+    /// The write token, if any.
+    pub token: Option<String>,
+}
+
+/// Reads a token file: its first line, trimmed; an empty one is refused.
+///
+/// # Errors
+/// One line naming the file.
+pub fn read_token_file(path: &Path) -> Result<String, String> {
+    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let token = text.lines().next().unwrap_or("").trim().to_string();
+    if token.is_empty() {
+        return Err(format!("{}: the token file is empty", path.display()));
+    }
+    Ok(token)
+}
+
+/// Runs the service until SIGTERM or ctrl-c: opens the store, starts the worker, listens,
+/// prints `liftwatch serve: listening on http://ADDR (data DIR)` to stderr, and at the signal
+/// stops taking requests, lets the worker write its final checkpoint, and returns.
+///
+/// # Errors
+/// One line: the data directory, the database, the address.
+pub fn serve(opts: ServeOptions) -> Result<(), String> {
+    std::fs::create_dir_all(&opts.data).map_err(|e| {
+        format!(
+            "{}: cannot create the data directory: {e}",
+            opts.data.display()
+        )
+    })?;
+    let writer = store::open(&opts.data)?;
+    for e in &opts.cfg.elevators {
+        let id = e.id.clone().unwrap_or_default();
+        let mut info = e.clone();
+        info.id = None;
+        let json = serde_json::to_string(&info).map_err(|e| e.to_string())?;
+        store::put_elevator(&writer, &id, &json).map_err(|e| e.to_string())?;
+    }
+    let worker_conn = store::open(&opts.data)?;
+    let (tx, rx) = std::sync::mpsc::channel();
+    let shared = Arc::new(Shared {
+        cfg: opts.cfg.clone(),
+        data_dir: opts.data.clone(),
+        token: opts.token.clone(),
+        writer: Mutex::new(writer),
+        readers: Mutex::new(Vec::new()),
+        snapshots: RwLock::new(HashMap::new()),
+        ingest: Mutex::new(HashMap::new()),
+        refused: AtomicU64::new(0),
+        worker: Mutex::new(tx.clone()),
+    });
+    let worker_shared = shared.clone();
+    let worker = std::thread::Builder::new()
+        .name("liftwatch-worker".into())
+        .spawn(move || worker::run(worker_conn, worker_shared, rx))
+        .map_err(|e| format!("cannot start the worker: {e}"))?;
+    let addr: SocketAddr = opts
+        .cfg
+        .listen
+        .parse()
+        .map_err(|_| format!("--listen `{}` is not an address:port", opts.cfg.listen))?;
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()
+        .map_err(|e| format!("cannot start the runtime: {e}"))?;
+    let result = rt.block_on(async {
+        let listener = tokio::net::TcpListener::bind(addr)
+            .await
+            .map_err(|e| format!("cannot listen on {addr}: {e}"))?;
+        let local = listener.local_addr().map_err(|e| e.to_string())?;
+        eprintln!(
+            "liftwatch serve: listening on http://{local} (data {})",
+            opts.data.display()
+        );
+        if shared.token.is_none() {
+            log("warn", "no token (--token-file or LIFTWATCH_TOKEN): writes are refused, the service is read-only");
+        }
+        let app = api::router(shared.clone());
+        axum::serve(listener, app)
+            .with_graceful_shutdown(shutdown_signal())
+            .await
+            .map_err(|e| format!("server: {e}"))
+    });
+    log("info", "shutting down: final checkpoint");
+    let _ = tx.send(Msg::Stop);
+    drop(tx);
+    let _ = worker.join();
+    result
+}
+
+/// Resolves at SIGTERM or ctrl-c.
+async fn shutdown_signal() {
+    let ctrl_c = async {
+        let _ = tokio::signal::ctrl_c().await;
+    };
+    #[cfg(unix)]
+    let term = async {
+        match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()) {
+            Ok(mut s) => {
+                s.recv().await;
+            }
+            Err(_) => std::future::pending::<()>().await,
+        }
+    };
+    #[cfg(not(unix))]
+    let term = std::future::pending::<()>();
+    tokio::select! {
+        () = ctrl_c => {},
+        () = term => {},
+    }
+}

@@ -10,12 +10,15 @@
 //! emit        t_k goes out once the latest time ≥ t_k + gap_limit_s + reorder_window_s
 //! ```
 //!
-//! The engine serves both the streaming and the sorted pass ([`super::passes`]); the sink's
-//! error comes back unchanged, the engine's own (a span beyond the limit) is converted
-//! into it.
+//! The engine serves the streaming and the sorted pass over a file ([`super::passes`]) and the
+//! push-based [`super::Aligner`] of a service: one engine, its state owned (serialisable), the
+//! sink and the name used in messages passed to each call. The sink's error comes back
+//! unchanged, the engine's own (a span beyond the limit) is converted into it.
 
 use std::collections::VecDeque;
 use std::path::Path;
+
+use serde::{Deserialize, Serialize};
 
 use super::{AlignConfig, SampleSink, FREE_SPAN_S, MAX_ROWS_PER_READING, MAX_SAMPLES, MAX_SPAN_S};
 use crate::error::{Error, Result};
@@ -23,18 +26,22 @@ use crate::ingest::{IngestReport, Signal};
 use crate::sample::Sample;
 
 /// One reading of one signal: 16 bytes, the signal is the buffer it sits in.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub(super) struct Reading {
     /// Time (s).
+    #[serde(with = "crate::exact")]
     pub(super) t: f64,
     /// Value.
+    #[serde(with = "crate::exact")]
     pub(super) v: f64,
 }
 
 /// The readings of one signal not yet behind the grid, and the last one that is.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub(super) struct Track {
     pub(super) pending: VecDeque<Reading>,
     prev: Option<Reading>,
+    #[serde(with = "crate::exact")]
     max_t: f64,
     continuous: bool,
 }
@@ -47,6 +54,12 @@ impl Track {
             max_t: f64::NEG_INFINITY,
             continuous: sig.is_continuous(),
         }
+    }
+
+    /// True when a reading at exactly time `t` is pending (a re-sent reading, for a service).
+    pub(super) fn has_pending_at(&self, t: f64) -> bool {
+        let pos = self.pending.partition_point(|x| x.t < t);
+        self.pending.get(pos).is_some_and(|r| r.t == t)
     }
 
     /// Sorts a reading in; returns (reordered, duplicate).
@@ -108,10 +121,13 @@ impl Track {
 
 /// Grid times t_k = k·Δ, computed as an exact decimal when Δ has at most 5 decimals,
 /// so that `0.1 · 3` is written `0.3`.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 struct Grid {
+    #[serde(with = "crate::exact")]
     step: f64,
+    #[serde(with = "crate::exact")]
     units: f64,
+    #[serde(with = "crate::exact")]
     scale: f64,
 }
 
@@ -173,48 +189,62 @@ pub(super) fn max_span(step: f64) -> f64 {
     MAX_SPAN_S.min(MAX_SAMPLES * step)
 }
 
-/// What a reading did to the engine.
-pub(super) enum Push {
+/// What a reading did to the aligner.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Push {
+    /// Sorted in; it will shape the samples around its time.
     Taken,
-    /// Earlier than the grid already produced allows.
+    /// Earlier than the grid already produced allows (older than the reorder window): a file
+    /// is read again and sorted, a service counts and drops it.
     Late,
-    /// The first `current` reading after samples without `current` went out.
+    /// The first `current` reading after samples without `current` went out: a file restarts
+    /// with the column, a service counts and drops it.
     LateCurrent,
+    /// ([`super::Aligner`] only) a reading of this signal at exactly this time is pending
+    /// already: a re-sent reading, dropped, so that a batch delivered twice changes nothing.
+    Duplicate,
+    /// ([`super::Aligner`] only) its time would stretch the span of usable times beyond the
+    /// limit (a clock jump): dropped.
+    OutOfSpan,
 }
 
-/// The alignment machinery shared by the streaming and the sorted pass.
-pub(super) struct Engine<'a, S: SampleSink> {
+/// The alignment machinery shared by the streaming and the sorted pass over a file and by the
+/// push-based [`super::Aligner`]: everything it carries from one reading to the next, owned and
+/// serialisable (the floats through [`crate::exact`]: the bounds start at ±∞).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub(super) struct Engine {
     grid: Grid,
+    #[serde(with = "crate::exact")]
     gap: f64,
+    #[serde(with = "crate::exact")]
     window: f64,
     pub(super) tracks: [Track; 7],
+    #[serde(with = "crate::exact")]
     t_min: f64,
+    #[serde(with = "crate::exact")]
     t_max: f64,
+    #[serde(with = "crate::exact")]
     max_span: f64,
     /// Usable readings taken so far (the span they may cover grows with them).
+    #[serde(with = "crate::exact")]
     readings: f64,
     next_k: Option<i64>,
     /// The latest time must reach this before the next grid point can go out.
+    #[serde(with = "crate::exact")]
     next_emit_at: f64,
     /// Readings at or before this time would change a sample already produced.
-    late_bound: f64,
+    #[serde(with = "crate::exact")]
+    pub(super) late_bound: f64,
     pub(super) has_current: bool,
-    started: bool,
-    sink: &'a mut S,
-    path: &'a Path,
-    samples: u64,
+    pub(super) started: bool,
+    pub(super) samples: u64,
     samples_with_gaps: u64,
     duplicates: u64,
     reordered: u64,
 }
 
-impl<'a, S: SampleSink> Engine<'a, S> {
-    pub(super) fn new(
-        cfg: &AlignConfig,
-        path: &'a Path,
-        sink: &'a mut S,
-        has_current: bool,
-    ) -> Self {
+impl Engine {
+    pub(super) fn new(cfg: &AlignConfig, has_current: bool) -> Self {
         Engine {
             grid: Grid::new(cfg.step_s),
             gap: cfg.gap_limit_s,
@@ -229,8 +259,6 @@ impl<'a, S: SampleSink> Engine<'a, S> {
             late_bound: f64::NEG_INFINITY,
             has_current,
             started: false,
-            sink,
-            path,
             samples: 0,
             samples_with_gaps: 0,
             duplicates: 0,
@@ -238,53 +266,87 @@ impl<'a, S: SampleSink> Engine<'a, S> {
         }
     }
 
-    /// Widens the known time range to `t`, refusing a span beyond the limit.
-    pub(super) fn widen(&mut self, t: f64) -> Result<()> {
+    /// The step Δ (s).
+    pub(super) fn step(&self) -> f64 {
+        self.grid.step
+    }
+
+    /// Widens the known time range to `t`, refusing a span beyond the limit; `path` names the
+    /// input in the message. Nothing changes on an error.
+    pub(super) fn widen(&mut self, t: f64, path: &Path) -> Result<()> {
         let (lo, hi) = (self.t_min.min(t), self.t_max.max(t));
         if hi - lo > self.max_span {
-            return Err(span_error(self.path, lo, hi, self.grid.step));
+            return Err(span_error(path, lo, hi, self.grid.step));
         }
-        self.readings += 1.0;
-        let allowed = FREE_SPAN_S + MAX_ROWS_PER_READING * self.readings * self.grid.step;
+        let readings = self.readings + 1.0;
+        let allowed = FREE_SPAN_S + MAX_ROWS_PER_READING * readings * self.grid.step;
         if hi - lo > allowed {
             return Err(Error::BadDocument {
-                path: self.path.to_path_buf(),
+                path: path.to_path_buf(),
                 what: "telemetry log",
                 why: format!(
-                    "{:.0} readings span {:.0} s (from {lo} to {hi}): too few to fill that span                      (a week plus {MAX_ROWS_PER_READING:.0} steps per reading); split the log at the gap",
-                    self.readings,
+                    "{readings:.0} readings span {:.0} s (from {lo} to {hi}): too few to fill that span                      (a week plus {MAX_ROWS_PER_READING:.0} steps per reading); split the log at the gap",
                     hi - lo
                 ),
             });
         }
+        self.readings = readings;
         self.t_min = lo;
         self.t_max = hi;
         Ok(())
     }
 
-    /// Streams one reading in, producing every grid point it makes certain.
-    pub(super) fn push(&mut self, sig: Signal, t: f64, v: f64) -> Result<Push, S::Error> {
+    /// Streams one reading of a file in, producing every grid point it makes certain.
+    pub(super) fn push<S: SampleSink>(
+        &mut self,
+        sig: Signal,
+        t: f64,
+        v: f64,
+        path: &Path,
+        sink: &mut S,
+    ) -> Result<Push, S::Error> {
+        if let Some(refused) = self.refusal(sig, t) {
+            return Ok(refused);
+        }
+        self.widen(t, path)?;
+        self.take(sig, t, v, sink)
+    }
+
+    /// Why a reading cannot be sorted in (late, or a late `current`), or `None`; a first
+    /// `current` before any sample went out switches the column on.
+    pub(super) fn refusal(&mut self, sig: Signal, t: f64) -> Option<Push> {
         if t <= self.late_bound {
-            return Ok(Push::Late);
+            return Some(Push::Late);
         }
         if sig == Signal::Current && !self.has_current {
             if self.started {
-                return Ok(Push::LateCurrent);
+                return Some(Push::LateCurrent);
             }
             self.has_current = true;
         }
-        self.widen(t)?;
+        None
+    }
+
+    /// Sorts a reading whose time [`Engine::widen`] accepted in and produces every grid point
+    /// it makes certain.
+    pub(super) fn take<S: SampleSink>(
+        &mut self,
+        sig: Signal,
+        t: f64,
+        v: f64,
+        sink: &mut S,
+    ) -> Result<Push, S::Error> {
         let (reordered, dup) = self.tracks[sig.index()].insert(Reading { t, v });
         self.reordered += u64::from(reordered);
         self.duplicates += u64::from(dup);
         if self.t_max >= self.next_emit_at {
-            self.emit_through(self.t_max - self.window)?;
+            self.emit_through(self.t_max - self.window, sink)?;
         }
         Ok(Push::Taken)
     }
 
     /// Produces grid points t_k with t_k + gap <= `limit` and t_k <= the latest time.
-    fn emit_through(&mut self, limit: f64) -> Result<(), S::Error> {
+    fn emit_through<S: SampleSink>(&mut self, limit: f64, sink: &mut S) -> Result<(), S::Error> {
         if !self.t_min.is_finite() {
             return Ok(());
         }
@@ -295,15 +357,15 @@ impl<'a, S: SampleSink> Engine<'a, S> {
                 self.next_emit_at = g + self.gap + self.window;
                 return Ok(());
             }
-            self.emit(g)?;
+            self.emit(g, sink)?;
             self.next_k = Some(k + 1);
         }
     }
 
     /// Produces grid point `g` and hands it to the sink, starting the sink first.
-    fn emit(&mut self, g: f64) -> Result<(), S::Error> {
+    fn emit<S: SampleSink>(&mut self, g: f64, sink: &mut S) -> Result<(), S::Error> {
         if !self.started {
-            self.sink.start(self.has_current)?;
+            sink.start(self.has_current)?;
             self.started = true;
         }
         let mut s = Sample::missing(g);
@@ -313,12 +375,12 @@ impl<'a, S: SampleSink> Engine<'a, S> {
         self.samples += 1;
         self.samples_with_gaps += u64::from(has_gap(&s));
         self.late_bound = g + self.gap;
-        self.sink.push(&s)
+        sink.push(&s)
     }
 
     /// Produces the rest of the grid, through the last usable time.
-    pub(super) fn flush(&mut self) -> Result<(), S::Error> {
-        self.emit_through(f64::INFINITY)
+    pub(super) fn flush<S: SampleSink>(&mut self, sink: &mut S) -> Result<(), S::Error> {
+        self.emit_through(f64::INFINITY, sink)
     }
 
     /// Copies the counts and the time range into `report`.
@@ -330,6 +392,11 @@ impl<'a, S: SampleSink> Engine<'a, S> {
         if self.t_min <= self.t_max {
             report.time_range = (self.t_min, self.t_max);
         }
+    }
+
+    /// The time range of the usable readings taken, `None` before the first.
+    pub(super) fn time_range(&self) -> Option<(f64, f64)> {
+        (self.t_min <= self.t_max).then_some((self.t_min, self.t_max))
     }
 }
 
@@ -351,16 +418,19 @@ mod tests {
         let cfg = AlignConfig::default().with_reorder_window(60.0).unwrap();
         let mut sink = Vec::new();
         let path = Path::new("t");
-        let mut engine = Engine::new(&cfg, path, &mut sink, false);
+        let mut engine = Engine::new(&cfg, false);
         let mut most = 0;
         for k in 0..86_400 {
             for sig in &Signal::ALL[..6] {
                 let t = f64::from(k) + 0.1 * sig.index() as f64;
-                assert!(matches!(engine.push(*sig, t, 1.0).unwrap(), Push::Taken));
+                assert!(matches!(
+                    engine.push(*sig, t, 1.0, path, &mut sink).unwrap(),
+                    Push::Taken
+                ));
             }
             most = most.max(engine.tracks.iter().map(|t| t.pending.len()).max().unwrap());
         }
-        engine.flush().unwrap();
+        engine.flush(&mut sink).unwrap();
         assert!(most <= 60 + 5 + 2, "{most} readings pending in one signal");
         assert_eq!(sink.len(), 86_400);
     }

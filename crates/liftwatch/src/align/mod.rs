@@ -39,10 +39,12 @@
 //! longer than `gap_limit_s`, because an invented value would turn into a residual.
 //!
 //! The files: `engine.rs` holds the per-signal buffers, the grid and the interpolation;
-//! `passes.rs` the three ways through a file (stream, sort, pass through); `sink.rs` the
+//! `passes.rs` the three ways through a file (stream, sort, pass through); `aligner.rs` the
+//! push-based [`Aligner`] of a service, the same engine with a serialisable state; `sink.rs` the
 //! receiving end, [`SampleSink`] with its own error type, and its sinks; `writer.rs` the
 //! aligned CSV.
 
+mod aligner;
 mod engine;
 mod passes;
 mod sink;
@@ -60,6 +62,8 @@ use crate::input::Input;
 use crate::sample::AlignedSeries;
 use passes::{pass_through, sorted_pass, stream_pass, Outcome, Plan};
 
+pub use aligner::{Aligner, AlignerCounts};
+pub use engine::Push;
 pub use sink::{sink_fn, AlignedFileSink, FnSink, SampleSink};
 pub use writer::{write_aligned, write_aligned_file, AlignedWriter};
 

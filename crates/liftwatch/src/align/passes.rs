@@ -57,21 +57,26 @@ pub(super) fn stream_pass<R: Read, S: SampleSink>(
     report: &mut IngestReport,
 ) -> Result<Outcome, S::Error> {
     let path = rows.path().to_path_buf();
-    let mut engine = Engine::new(cfg, &path, sink, has_current);
+    let mut engine = Engine::new(cfg, has_current);
     let mut outcome = Outcome::Done;
-    rows.for_each_reading::<S::Error>(report, |t, sig, v, line| match engine.push(sig, t, v)? {
-        Push::Taken => Ok(ControlFlow::Continue(())),
-        Push::Late => {
-            outcome = Outcome::Late(line);
-            Ok(ControlFlow::Break(()))
-        }
-        Push::LateCurrent => {
-            outcome = Outcome::LateCurrent;
-            Ok(ControlFlow::Break(()))
+    rows.for_each_reading::<S::Error>(report, |t, sig, v, line| {
+        match engine.push(sig, t, v, &path, sink)? {
+            Push::Taken => Ok(ControlFlow::Continue(())),
+            Push::Late => {
+                outcome = Outcome::Late(line);
+                Ok(ControlFlow::Break(()))
+            }
+            Push::LateCurrent => {
+                outcome = Outcome::LateCurrent;
+                Ok(ControlFlow::Break(()))
+            }
+            // Engine::push returns neither: a file keeps duplicates (mean or last) and fails on
+            // a span beyond the limit.
+            Push::Duplicate | Push::OutOfSpan => Ok(ControlFlow::Continue(())),
         }
     })?;
     if matches!(outcome, Outcome::Done) {
-        engine.flush()?;
+        engine.flush(sink)?;
     }
     engine.report_into(report);
     Ok(outcome)
@@ -86,12 +91,12 @@ pub(super) fn sorted_pass<R: Read, S: SampleSink>(
     report: &mut IngestReport,
 ) -> Result<Outcome, S::Error> {
     let path = rows.path().to_path_buf();
-    let mut engine = Engine::new(cfg, &path, sink, has_current);
+    let mut engine = Engine::new(cfg, has_current);
     let mut data: [Vec<Reading>; 7] = Default::default();
     let mut max_t = [f64::NEG_INFINITY; 7];
     let mut reordered = 0u64;
     rows.for_each_reading::<S::Error>(report, |t, sig, v, _| {
-        engine.widen(t)?;
+        engine.widen(t, &path)?;
         let i = sig.index();
         reordered += u64::from(t < max_t[i]);
         max_t[i] = max_t[i].max(t);
@@ -106,7 +111,7 @@ pub(super) fn sorted_pass<R: Read, S: SampleSink>(
         engine.has_current |= sig == Signal::Current && !readings.is_empty();
         engine.tracks[sig.index()].pending = VecDeque::from(readings);
     }
-    engine.flush()?;
+    engine.flush(sink)?;
     engine.report_into(report);
     report.duplicate_timestamps = duplicates;
     report.rows_reordered = reordered;

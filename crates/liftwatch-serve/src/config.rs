@@ -1,0 +1,296 @@
+//! The service's settings: `--config FILE` (TOML) over built-in defaults, every bound named.
+//!
+//! ```toml
+//! listen = "127.0.0.1:8080"
+//! reorder_window_s = 30          # how late a row may come and still be sorted in
+//! checkpoint_every_s = 2.0       # wall time between two checkpoints of the worker
+//! checkpoint_every_batches = 500 # or this many batches, whichever comes first
+//! keep_raw_days = 35             # raw batches kept for fitting from history
+//! max_body_bytes = 8388608
+//! max_rows_per_request = 200000
+//! max_elevators = 2000
+//! read_token = false             # true: reads need the token too
+//!
+//! [[elevators]]
+//! id = "B7-east"
+//! name = "Lift A"
+//! group = "Building 7"
+//! rated_load_kg = 1000
+//! rated_speed_mps = 1.6
+//! floors = 16
+//! timezone = "+01:00"
+//! ```
+
+use std::net::SocketAddr;
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+/// Default reorder window of the service (s): short, for latency. A row later than this
+/// behind the newest one is counted as late and dropped (a file is sorted instead); loggers
+/// that flush every few seconds stay far inside it.
+pub const DEFAULT_REORDER_WINDOW_S: f64 = 30.0;
+
+/// Default wall time between two checkpoints (s): the worker's outputs become visible and
+/// durable at most this late, and a restart re-applies at most this much.
+pub const DEFAULT_CHECKPOINT_EVERY_S: f64 = 2.0;
+
+/// Default number of batches applied between two checkpoints, whichever comes first: bounds
+/// the work a restart repeats when a backlog is applied faster than the wall-time rule fires.
+pub const DEFAULT_CHECKPOINT_EVERY_BATCHES: u64 = 500;
+
+/// Default retention of raw batches (days): a month of history to fit from, plus a margin.
+pub const DEFAULT_KEEP_RAW_DAYS: f64 = 35.0;
+
+/// Default largest request body (bytes): 8 MiB, about 12 hours of one elevator's raw log.
+pub const DEFAULT_MAX_BODY_BYTES: usize = 8 << 20;
+
+/// Default most rows in one telemetry request: about 9 hours of one elevator at 6 signals/s.
+pub const DEFAULT_MAX_ROWS_PER_REQUEST: usize = 200_000;
+
+/// Default most elevators one instance holds: a few large buildings; each costs a worker state
+/// of tens of KiB in memory.
+pub const DEFAULT_MAX_ELEVATORS: usize = 2_000;
+
+/// Default listening address: this machine only.
+pub const DEFAULT_LISTEN: &str = "127.0.0.1:8080";
+
+/// One elevator as the config file (or `PUT /api/v1/elevators/{id}`) describes it.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ElevatorInfo {
+    /// Id, `[A-Za-z0-9_-]{1,64}` (in the config file; the path gives it in the API).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub id: Option<String>,
+    /// Name a person reads (`"Lift A"`).
+    #[serde(default)]
+    pub name: Option<String>,
+    /// Bank or building label; peers are compared within it.
+    #[serde(default)]
+    pub group: Option<String>,
+    /// Rated load (kg).
+    #[serde(default)]
+    pub rated_load_kg: Option<f64>,
+    /// Rated speed (m/s).
+    #[serde(default)]
+    pub rated_speed_mps: Option<f64>,
+    /// Floors served.
+    #[serde(default)]
+    pub floors: Option<u32>,
+    /// Fixed UTC offset (`"+01:00"`) or `"UTC"`, as in `elevator.toml`.
+    #[serde(default)]
+    pub timezone: Option<String>,
+}
+
+/// The service's settings.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Config {
+    /// Address to listen on.
+    pub listen: String,
+    /// Reorder window of the aligner (s).
+    pub reorder_window_s: f64,
+    /// Wall time between checkpoints (s).
+    pub checkpoint_every_s: f64,
+    /// Batches between checkpoints.
+    pub checkpoint_every_batches: u64,
+    /// Days raw batches are kept.
+    pub keep_raw_days: f64,
+    /// Largest request body (bytes).
+    pub max_body_bytes: usize,
+    /// Most rows in one telemetry request.
+    pub max_rows_per_request: usize,
+    /// Most elevators.
+    pub max_elevators: usize,
+    /// Reads need the token too.
+    pub read_token: bool,
+    /// Elevators known from the start.
+    pub elevators: Vec<ElevatorInfo>,
+}
+
+impl Default for Config {
+    fn default() -> Self {
+        Config {
+            listen: DEFAULT_LISTEN.into(),
+            reorder_window_s: DEFAULT_REORDER_WINDOW_S,
+            checkpoint_every_s: DEFAULT_CHECKPOINT_EVERY_S,
+            checkpoint_every_batches: DEFAULT_CHECKPOINT_EVERY_BATCHES,
+            keep_raw_days: DEFAULT_KEEP_RAW_DAYS,
+            max_body_bytes: DEFAULT_MAX_BODY_BYTES,
+            max_rows_per_request: DEFAULT_MAX_ROWS_PER_REQUEST,
+            max_elevators: DEFAULT_MAX_ELEVATORS,
+            read_token: false,
+            elevators: Vec::new(),
+        }
+    }
+}
+
+/// Largest config file read (bytes).
+const MAX_CONFIG_BYTES: u64 = 1 << 20;
+
+impl Config {
+    /// Reads a TOML config file; missing keys keep their defaults.
+    ///
+    /// # Errors
+    /// One line naming the file and what is wrong.
+    pub fn load(path: &Path) -> Result<Config, String> {
+        let meta = std::fs::metadata(path).map_err(|e| format!("{}: {e}", path.display()))?;
+        if meta.len() > MAX_CONFIG_BYTES {
+            return Err(format!(
+                "{}: {} bytes, more than the {MAX_CONFIG_BYTES} a config may have",
+                path.display(),
+                meta.len()
+            ));
+        }
+        let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+        let cfg: Config = toml::from_str(&text)
+            .map_err(|e| format!("{}: {}", path.display(), one_line(&e.to_string())))?;
+        cfg.validate()
+            .map_err(|e| format!("{}: {e}", path.display()))?;
+        Ok(cfg)
+    }
+
+    /// Checks every setting.
+    ///
+    /// # Errors
+    /// One line naming the first setting out of range.
+    pub fn validate(&self) -> Result<(), String> {
+        self.listen
+            .parse::<SocketAddr>()
+            .map_err(|_| format!("listen `{}` is not an address:port", self.listen))?;
+        liftwatch::align::AlignConfig::default()
+            .with_reorder_window(self.reorder_window_s)
+            .map_err(|e| e.to_string())?;
+        if !(self.checkpoint_every_s > 0.0 && self.checkpoint_every_s <= 3600.0) {
+            return Err(format!(
+                "checkpoint_every_s {} is outside (0, 3600]",
+                self.checkpoint_every_s
+            ));
+        }
+        if self.checkpoint_every_batches == 0 {
+            return Err("checkpoint_every_batches must be at least 1".into());
+        }
+        if !(self.keep_raw_days >= 0.0 && self.keep_raw_days <= 3650.0) {
+            return Err(format!(
+                "keep_raw_days {} is outside 0 to 3650",
+                self.keep_raw_days
+            ));
+        }
+        if self.max_body_bytes < 1024 || self.max_rows_per_request == 0 || self.max_elevators == 0 {
+            return Err("max_body_bytes (≥ 1024), max_rows_per_request and max_elevators (≥ 1) bound the input".into());
+        }
+        for e in &self.elevators {
+            let id = e.id.as_deref().unwrap_or("");
+            if !valid_id(id) {
+                return Err(format!(
+                    "elevator id `{}` is not [A-Za-z0-9_-]{{1,64}}",
+                    one_line(id)
+                ));
+            }
+            check_info(e).map_err(|why| format!("elevator {id}: {why}"))?;
+        }
+        Ok(())
+    }
+}
+
+/// Checks the values of an elevator description.
+///
+/// # Errors
+/// One line naming the field.
+pub fn check_info(e: &ElevatorInfo) -> Result<(), String> {
+    let positive = |name: &str, v: Option<f64>| match v {
+        Some(x) if !(x.is_finite() && x > 0.0 && x < 1e6) => {
+            Err(format!("{name} {x} is not a positive number below 1e6"))
+        }
+        _ => Ok(()),
+    };
+    positive("rated_load_kg", e.rated_load_kg)?;
+    positive("rated_speed_mps", e.rated_speed_mps)?;
+    if let Some(f) = e.floors {
+        if !(2..=500).contains(&f) {
+            return Err(format!("floors {f} is outside 2 to 500"));
+        }
+    }
+    for (name, v) in [("name", &e.name), ("group", &e.group)] {
+        if v.as_ref()
+            .is_some_and(|s| s.chars().count() > MAX_LABEL_CHARS)
+        {
+            return Err(format!(
+                "{name} is longer than {MAX_LABEL_CHARS} characters"
+            ));
+        }
+    }
+    if let Some(tz) = &e.timezone {
+        utc_offset(tz)?;
+    }
+    Ok(())
+}
+
+/// Longest name or group label (characters).
+pub const MAX_LABEL_CHARS: usize = 200;
+
+/// Seconds east of UTC of a `timezone` value, read as `elevator.toml` reads it.
+///
+/// # Errors
+/// One line for anything but a fixed offset or `UTC`.
+pub fn utc_offset(tz: &str) -> Result<i32, String> {
+    let mut e = liftwatch::Elevator::new(1000.0, 1.0, 2);
+    e.timezone = Some(tz.to_string());
+    e.utc_offset_s()
+}
+
+/// Longest elevator id (characters).
+pub const MAX_ID_CHARS: usize = 64;
+
+/// True for an elevator id of the contract: `[A-Za-z0-9_-]{1,64}`. Ids never reach the file
+/// system; the check keeps URLs, logs and metric labels plain.
+pub fn valid_id(id: &str) -> bool {
+    !id.is_empty()
+        && id.len() <= MAX_ID_CHARS
+        && id
+            .bytes()
+            .all(|b| b.is_ascii_alphanumeric() || b == b'_' || b == b'-')
+}
+
+/// Most characters of outside text quoted in a message.
+const QUOTED_CHARS: usize = 120;
+
+/// `s` on one line and clipped, for messages.
+pub fn one_line(s: &str) -> String {
+    let flat: String = s
+        .chars()
+        .map(|c| if c.is_control() { ' ' } else { c })
+        .take(QUOTED_CHARS)
+        .collect();
+    if s.chars().count() > QUOTED_CHARS {
+        format!("{flat}…")
+    } else {
+        flat
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ids_are_plain_names_never_paths() {
+        assert!(valid_id("B7-east_2"));
+        for bad in ["", "../etc", "a/b", "a.b", "é", &"x".repeat(65)] {
+            assert!(!valid_id(bad), "{bad}");
+        }
+    }
+
+    #[test]
+    fn a_config_file_reads_with_defaults_and_refuses_nonsense() {
+        let cfg: Config = toml::from_str(
+            "reorder_window_s = 10\n[[elevators]]\nid = \"a\"\nfloors = 8\ntimezone = \"+01:00\"\n",
+        )
+        .unwrap();
+        assert!(cfg.validate().is_ok());
+        assert_eq!(cfg.max_body_bytes, DEFAULT_MAX_BODY_BYTES);
+        let bad: Config = toml::from_str("[[elevators]]\nid = \"a/b\"\n").unwrap();
+        assert!(bad.validate().is_err());
+        assert!(toml::from_str::<Config>("lisen = \"x\"").is_err());
+    }
+}

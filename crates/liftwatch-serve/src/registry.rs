@@ -1,0 +1,864 @@
+//! Model management and the stored outputs: telemetry parsing, the model registry (upload,
+//! activate, rollback, fit from history), maintenance visits, the row and event lists and the
+//! metrics text.
+//!
+//! ```text
+//! upload    file::load_str (the CLI's checks) → version n+1, `ready`; the first is activated
+//! activate  one active version per elevator; the worker restarts the monitor from a fresh
+//!           state of it at the stream position it has reached (a rollback is an activation)
+//! fit       stored raw batches of [from, to] → Aligner → fit::fit in a thread → `proposed`
+//! visit     labels the open events confirmed / not_found; rebaseline → fresh monitor state
+//! ```
+
+use std::collections::HashMap;
+use std::io::Cursor;
+use std::ops::ControlFlow;
+use std::path::Path;
+use std::sync::Arc;
+
+use axum::http::StatusCode;
+use liftwatch::align::{AlignConfig, Aligner};
+use liftwatch::ingest::csv::RowReader;
+use liftwatch::ingest::{IngestReport, Layout, Signal};
+use liftwatch::Sample;
+use rusqlite::{params, Connection, OptionalExtension};
+use serde::Deserialize;
+use serde_json::{json, Value};
+
+use crate::api::{time_text, trip_object, ApiError};
+use crate::config::{one_line, ElevatorInfo};
+use crate::{log, store, Shared};
+
+/// The raw header the row parser needs; prepended when a body comes without it.
+const RAW_HEADER: &str = "time,signal,value\n";
+
+/// Name of a request body in messages.
+const BODY_NAME: &str = "request body";
+
+/// The good readings of a telemetry body and what was skipped.
+#[derive(Debug, Default)]
+pub struct Parsed {
+    /// Readings in body order.
+    pub readings: Vec<(Signal, f64, f64)>,
+    /// Bad rows skipped.
+    pub bad: u64,
+    /// Rows with an empty value (not readings, not bad).
+    pub missing: u64,
+    /// Rows of unknown signals.
+    pub unknown: u64,
+    /// Line of the first bad row.
+    pub first_bad_line: Option<u64>,
+    /// Why it was bad.
+    pub first_bad_reason: Option<String>,
+}
+
+/// Parses a telemetry body with the library's row parser (CSV `time,signal,value`, header
+/// optional; or JSON lines turned into those rows first).
+///
+/// # Errors
+/// 413 for more rows than `max_rows`; 400 for a body with no good row, or of the aligned
+/// layout.
+pub fn parse_telemetry(body: &[u8], ndjson: bool, max_rows: usize) -> Result<Parsed, ApiError> {
+    let lines = body.iter().filter(|&&b| b == b'\n').count() + 1;
+    if lines > max_rows + 1 {
+        return Err(ApiError(
+            StatusCode::PAYLOAD_TOO_LARGE,
+            format!("{lines} lines, more than the {max_rows} rows a request may carry (max_rows_per_request)"),
+        ));
+    }
+    let mut pre = Parsed::default();
+    let text: Vec<u8> = if ndjson {
+        json_lines_to_csv(body, &mut pre)
+    } else {
+        let first = body.split(|&b| b == b'\n').next().unwrap_or(b"");
+        let first = first.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(first);
+        if first
+            .trim_ascii()
+            .to_ascii_lowercase()
+            .starts_with(b"time,")
+        {
+            body.to_vec()
+        } else {
+            let mut t = RAW_HEADER.as_bytes().to_vec();
+            t.extend_from_slice(body);
+            t
+        }
+    };
+    let mut rows = RowReader::new(Cursor::new(&text), Path::new(BODY_NAME))
+        .map_err(|e| ApiError::bad(e.to_string()))?;
+    if rows.layout() != Layout::Raw {
+        return Err(ApiError::bad(
+            "aligned rows are not accepted here: send the raw `time,signal,value` rows",
+        ));
+    }
+    let mut report = IngestReport::new(Layout::Raw);
+    let mut readings = Vec::new();
+    rows.for_each_reading::<liftwatch::Error>(&mut report, |t, sig, v, _| {
+        readings.push((sig, t, v));
+        Ok(ControlFlow::Continue(()))
+    })
+    .map_err(|e| ApiError::bad(e.to_string()))?;
+    let shift = u64::from(!ndjson && text.len() != body.len());
+    let mut out = Parsed {
+        readings,
+        bad: report.bad_rows + pre.bad,
+        missing: report.missing_values,
+        unknown: report.unknown_rows(),
+        first_bad_line: pre
+            .first_bad_line
+            .or(report.first_bad_lines.first().map(|l| l - shift)),
+        first_bad_reason: pre.first_bad_reason.take().or(report.first_bad_reason),
+    };
+    if out.readings.is_empty() {
+        let why = match (&out.first_bad_line, &out.first_bad_reason) {
+            (Some(l), Some(r)) => format!("no good row ({} bad; line {l}: {r})", out.bad),
+            _ if out.unknown > 0 => {
+                format!("no good row ({} rows of unknown signals)", out.unknown)
+            }
+            _ => "no good row: expected `time,signal,value` rows".to_string(),
+        };
+        return Err(ApiError::bad(why));
+    }
+    out.first_bad_reason = out.first_bad_reason.map(|r| one_line(&r));
+    Ok(out)
+}
+
+/// JSON lines `{"time":…,"signal":…,"value":…}` as raw CSV rows; a line that is not such an
+/// object is counted bad (its line number kept) and left out.
+fn json_lines_to_csv(body: &[u8], p: &mut Parsed) -> Vec<u8> {
+    let mut out = RAW_HEADER.as_bytes().to_vec();
+    for (i, line) in body.split(|&b| b == b'\n').enumerate() {
+        if line.trim_ascii().is_empty() {
+            continue;
+        }
+        let field = |v: &Value| match v {
+            Value::Number(n) => Some(n.to_string()),
+            Value::String(s) if !s.contains([',', '"', '\n', '\r']) => Some(s.clone()),
+            Value::Null => Some(String::new()),
+            _ => None,
+        };
+        let row = serde_json::from_slice::<Value>(line).ok().and_then(|v| {
+            Some(format!(
+                "{},{},{}\n",
+                field(v.get("time")?)?,
+                field(v.get("signal")?)?,
+                field(v.get("value").unwrap_or(&Value::Null))?
+            ))
+        });
+        match row {
+            Some(r) => out.extend_from_slice(r.as_bytes()),
+            None => {
+                p.bad += 1;
+                if p.first_bad_line.is_none() {
+                    p.first_bad_line = Some(i as u64 + 1);
+                    p.first_bad_reason =
+                        Some("not a JSON object with `time`, `signal` and `value`".into());
+                }
+            }
+        }
+    }
+    out
+}
+
+/// Version, created, source, note, fingerprint, status, active of a stored model.
+type ModelRow = (
+    i64,
+    f64,
+    String,
+    Option<String>,
+    Option<String>,
+    String,
+    bool,
+    Option<String>,
+);
+
+fn model_rows(conn: &Connection, id: &str) -> rusqlite::Result<Vec<ModelRow>> {
+    let mut st = conn.prepare(
+        "SELECT version, created, source, note, fingerprint, status, active, body FROM models
+         WHERE elevator = ?1 ORDER BY version",
+    )?;
+    let rows = st
+        .query_map([id], |r| {
+            Ok((
+                r.get(0)?,
+                r.get(1)?,
+                r.get(2)?,
+                r.get(3)?,
+                r.get(4)?,
+                r.get(5)?,
+                r.get::<_, i64>(6)? != 0,
+                r.get(7)?,
+            ))
+        })?
+        .collect();
+    rows
+}
+
+/// The fitted physical parameters of a model document: `{name: {value, std_error, unit,
+/// determined}}`.
+fn parameters(body: &str) -> Value {
+    let Ok(doc) = serde_json::from_str::<Value>(body) else {
+        return Value::Null;
+    };
+    let mut out = serde_json::Map::new();
+    if let Some(list) = doc.pointer("/fit/parameters").and_then(Value::as_array) {
+        for p in list {
+            if let Some(name) = p.get("name").and_then(Value::as_str) {
+                out.insert(
+                    name.to_string(),
+                    json!({
+                        "value": p.get("value"),
+                        "std_error": p.get("std_error"),
+                        "unit": p.get("unit"),
+                        "determined": p.get("determined"),
+                    }),
+                );
+            }
+        }
+    }
+    Value::Object(out)
+}
+
+fn model_json(r: &ModelRow, params: &Value) -> Value {
+    json!({
+        "version": r.0,
+        "created": r.1,
+        "source": r.2,
+        "note": r.3,
+        "fingerprint": r.4,
+        "status": r.5,
+        "active": r.6,
+        "parameters": params,
+    })
+}
+
+/// The active model's description, `None` without one.
+///
+/// # Errors
+/// The database's, as one line.
+pub fn active_model_json(conn: &Connection, id: &str) -> Result<Option<Value>, String> {
+    let rows = model_rows(conn, id).map_err(|e| e.to_string())?;
+    Ok(rows.iter().find(|r| r.6).map(|r| {
+        let p = r.7.as_deref().map_or(Value::Null, parameters);
+        model_json(r, &p)
+    }))
+}
+
+/// Every version with its parameter changes in percent against the active one.
+///
+/// # Errors
+/// The database's, as one line.
+pub fn model_list(conn: &Connection, id: &str) -> Result<Vec<Value>, String> {
+    let rows = model_rows(conn, id).map_err(|e| e.to_string())?;
+    let params: Vec<Value> = rows
+        .iter()
+        .map(|r| r.7.as_deref().map_or(Value::Null, parameters))
+        .collect();
+    let active = rows.iter().position(|r| r.6).map(|i| &params[i]);
+    Ok(rows
+        .iter()
+        .zip(&params)
+        .map(|(r, p)| {
+            let mut v = model_json(r, p);
+            let mut changes = serde_json::Map::new();
+            if let (Some(Value::Object(a)), Value::Object(this)) = (active, p) {
+                for (name, x) in this {
+                    let new = x["value"].as_f64();
+                    let old = a.get(name).and_then(|o| o["value"].as_f64());
+                    let pct = match (new, old) {
+                        (Some(n), Some(o)) if o != 0.0 => {
+                            serde_json::Number::from_f64(100.0 * (n - o) / o.abs())
+                                .map(Value::Number)
+                        }
+                        _ => None,
+                    };
+                    changes.insert(name.clone(), pct.unwrap_or(Value::Null));
+                }
+            }
+            v["changes"] = Value::Object(changes);
+            v
+        })
+        .collect())
+}
+
+/// Stores an uploaded model file after the CLI's checks; the elevator's first model is
+/// activated at once.
+///
+/// # Errors
+/// 400 for a file `liftwatch fit` did not write (wrong version, garbage, insane values) or of
+/// another aligned step than the service's; nothing is stored then.
+pub fn upload(
+    conn: &Connection,
+    id: &str,
+    text: &str,
+    source: &str,
+    note: Option<&str>,
+) -> Result<Value, ApiError> {
+    let model = liftwatch::file::load_str(text, Path::new("uploaded model"))
+        .map_err(|e| ApiError::bad(e.to_string()))?;
+    let step = AlignConfig::default().step_s;
+    if let Some(s) = model.step_s {
+        if s != step {
+            return Err(ApiError::bad(format!(
+                "the model was fitted at a {s} s step; this service aligns at {step} s"
+            )));
+        }
+    }
+    let fingerprint = liftwatch::monitor::model_fingerprint(&model);
+    store_model(
+        conn,
+        id,
+        Some(text),
+        &fingerprint,
+        "ready",
+        source,
+        note,
+        true,
+    )
+    .map_err(|e| ApiError::internal(format!("database: {e}")))
+}
+
+/// Inserts a model version (and the elevator if new); activates it when `activate_if_first`
+/// and no version is active.
+#[allow(clippy::too_many_arguments)]
+fn store_model(
+    conn: &Connection,
+    id: &str,
+    body: Option<&str>,
+    fingerprint: &str,
+    status: &str,
+    source: &str,
+    note: Option<&str>,
+    activate_if_first: bool,
+) -> rusqlite::Result<Value> {
+    let tx = conn.unchecked_transaction()?;
+    if !store::elevator_exists(&tx, id)? {
+        store::put_elevator(&tx, id, "{}")?;
+    }
+    let version: i64 = tx.query_row(
+        "SELECT COALESCE(MAX(version), 0) + 1 FROM models WHERE elevator = ?1",
+        [id],
+        |r| r.get(0),
+    )?;
+    let none_active: bool = tx.query_row(
+        "SELECT COUNT(*) = 0 FROM models WHERE elevator = ?1 AND active = 1",
+        [id],
+        |r| r.get(0),
+    )?;
+    let active = activate_if_first && none_active;
+    tx.execute(
+        "INSERT INTO models (elevator, version, created, source, note, fingerprint, status, active, body)
+         VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9)",
+        params![id, version, store::now(), source, note, fingerprint, status, active, body],
+    )?;
+    tx.commit()?;
+    Ok(
+        json!({"id": id, "version": version, "fingerprint": fingerprint, "active": active, "status": status}),
+    )
+}
+
+/// Makes `version` the active model (activation and rollback alike).
+///
+/// # Errors
+/// 404 for an unknown version; 409 for one still fitting or failed.
+pub fn activate(conn: &Connection, id: &str, version: i64) -> Result<(), ApiError> {
+    let status: Option<String> = conn
+        .query_row(
+            "SELECT status FROM models WHERE elevator = ?1 AND version = ?2",
+            params![id, version],
+            |r| r.get(0),
+        )
+        .optional()
+        .map_err(|e| ApiError::internal(format!("database: {e}")))?;
+    match status.as_deref() {
+        None => Err(ApiError::not_found(format!(
+            "elevator `{id}` has no model {version}"
+        ))),
+        Some("ready" | "proposed") => {
+            let tx = conn
+                .unchecked_transaction()
+                .map_err(|e| ApiError::internal(e.to_string()))?;
+            tx.execute("UPDATE models SET active = 0 WHERE elevator = ?1", [id])
+                .and_then(|_| {
+                    tx.execute(
+                        "UPDATE models SET active = 1, status = 'ready' WHERE elevator = ?1 AND version = ?2",
+                        params![id, version],
+                    )
+                })
+                .and_then(|_| tx.commit())
+                .map_err(|e| ApiError::internal(format!("database: {e}")))
+        }
+        Some(other) => Err(ApiError(
+            StatusCode::CONFLICT,
+            format!("model {version} is `{other}`, not a model that can run"),
+        )),
+    }
+}
+
+/// `POST …/fit`: the time range of stored telemetry to fit on, and a note.
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FitRequest {
+    /// Start of the healthy range (data clock, s); default the oldest stored.
+    pub from: Option<f64>,
+    /// End (s); default the newest stored.
+    pub to: Option<f64>,
+    /// Why this fit.
+    pub note: Option<String>,
+}
+
+/// Registers a `fitting` version and fits it in a background thread from the stored raw
+/// batches of the range; the version becomes `proposed` (or `failed`, with the reason in its
+/// note). Returns the version.
+///
+/// # Errors
+/// 404 for an unknown elevator; 400 without the rated values to describe it.
+pub fn start_fit(shared: Arc<Shared>, id: &str, req: FitRequest) -> Result<i64, ApiError> {
+    let db = |e: rusqlite::Error| ApiError::internal(format!("database: {e}"));
+    let conn = shared
+        .writer
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner);
+    let info: Option<String> = conn
+        .query_row("SELECT info FROM elevators WHERE id = ?1", [id], |r| {
+            r.get(0)
+        })
+        .optional()
+        .map_err(db)?;
+    let info: ElevatorInfo = serde_json::from_str(
+        &info.ok_or_else(|| ApiError::not_found(format!("no elevator `{id}`")))?,
+    )
+    .unwrap_or_default();
+    // The description: the active model's, else the stored rated values.
+    let active_body: Option<String> = conn
+        .query_row(
+            "SELECT body FROM models WHERE elevator = ?1 AND active = 1",
+            [id],
+            |r| r.get(0),
+        )
+        .optional()
+        .map_err(db)?
+        .flatten();
+    let elevator = match active_body.and_then(|b| liftwatch::file::load_str(&b, Path::new("active model")).ok()) {
+        Some(m) => m.hybrid.elevator,
+        None => match (info.rated_load_kg, info.rated_speed_mps, info.floors) {
+            (Some(l), Some(s), Some(f)) => {
+                let mut e = liftwatch::Elevator::new(l, s, f);
+                e.name = info.name.clone();
+                e.timezone = info.timezone.clone();
+                e
+            }
+            _ => {
+                return Err(ApiError::bad(
+                    "no active model and no rated_load_kg, rated_speed_mps and floors (PUT the elevator first)",
+                ))
+            }
+        },
+    };
+    let note = req
+        .note
+        .clone()
+        .unwrap_or_else(|| "fit from stored telemetry".into());
+    let v = store_model(&conn, id, None, "", "fitting", "fit", Some(&note), false).map_err(db)?;
+    drop(conn);
+    let version = v["version"].as_i64().unwrap_or(0);
+    let id = id.to_string();
+    std::thread::Builder::new()
+        .name("liftwatch-fit".into())
+        .spawn(move || {
+            let result = fit_from_history(&shared, &id, &req, &elevator);
+            let conn = shared.writer.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+            let done = match result {
+                Ok((text, fp, summary)) => conn.execute(
+                    "UPDATE models SET status = 'proposed', body = ?3, fingerprint = ?4, note = ?5 WHERE elevator = ?1 AND version = ?2",
+                    params![id, version, text, fp, format!("{note}; {summary}")],
+                ),
+                Err(why) => {
+                    log("warn", &format!("elevator {id}: fit of model {version} failed: {why}"));
+                    conn.execute(
+                        "UPDATE models SET status = 'failed', note = ?3 WHERE elevator = ?1 AND version = ?2",
+                        params![id, version, one_line(&why)],
+                    )
+                }
+            };
+            if let Err(e) = done {
+                log("error", &format!("elevator {id}: cannot record the fit of model {version}: {e}"));
+            }
+        })
+        .map_err(|e| ApiError::internal(format!("cannot start the fit: {e}")))?;
+    Ok(version)
+}
+
+/// Reorder window of a fit from history (s): the stored batches are in arrival order, as a
+/// file is, so the file default applies.
+const FIT_REORDER_WINDOW_S: f64 = 600.0;
+
+fn fit_from_history(
+    shared: &Shared,
+    id: &str,
+    req: &FitRequest,
+    elevator: &liftwatch::Elevator,
+) -> Result<(String, String, String), String> {
+    let (lo, hi) = (
+        req.from.unwrap_or(f64::NEG_INFINITY),
+        req.to.unwrap_or(f64::INFINITY),
+    );
+    let cfg = AlignConfig::default()
+        .with_reorder_window(FIT_REORDER_WINDOW_S)
+        .map_err(|e| e.to_string())?;
+    let mut aligner = Aligner::new(&cfg).map_err(|e| e.to_string())?;
+    let mut samples: Vec<Sample> = Vec::new();
+    shared.read(|c| {
+        let mut st = c
+            .prepare("SELECT data FROM batches WHERE elevator = ?1 AND t_max >= ?2 AND t_min <= ?3 ORDER BY seq")
+            .map_err(|e| e.to_string())?;
+        let mut rows = st.query(params![id, lo, hi]).map_err(|e| e.to_string())?;
+        while let Some(r) = rows.next().map_err(|e| e.to_string())? {
+            let data: Vec<u8> = r.get(0).map_err(|e| e.to_string())?;
+            for (sig, t, v) in store::decode(&data).0 {
+                if (lo..=hi).contains(&t) {
+                    aligner.push(sig, t, v, &mut samples).map_err(|e| e.to_string())?;
+                }
+            }
+        }
+        Ok(())
+    })?;
+    aligner.flush(&mut samples).map_err(|e| e.to_string())?;
+    if samples.is_empty() {
+        return Err("no stored telemetry in the range (raw batches are kept keep_raw_days)".into());
+    }
+    let series = liftwatch::AlignedSeries {
+        step_s: cfg.step_s,
+        samples,
+    };
+    let outcome = liftwatch::fit::fit(
+        &series,
+        elevator,
+        &liftwatch::model::train::TrainConfig::default(),
+        &mut |_| {},
+    )
+    .map_err(|e| e.to_string())?;
+    let text = serde_json::to_string_pretty(&outcome.model).map_err(|e| e.to_string())?;
+    // The same checks as an upload: a fit the registry would refuse is a failed fit.
+    liftwatch::file::load_str(&text, Path::new("fitted model")).map_err(|e| e.to_string())?;
+    let fp = liftwatch::monitor::model_fingerprint(&outcome.model);
+    let summary = format!("{} aligned samples", series.samples.len());
+    Ok((text, fp, summary))
+}
+
+/// `POST …/maintenance`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Visit {
+    /// When (data clock, s): the open events at or before it are labelled.
+    pub time: f64,
+    /// What was done.
+    pub work: String,
+    /// What was found: `confirmed` (the fault was there) or `not_found`.
+    pub finding: String,
+    /// Restart the monitor's risk from a fresh state of the active model ("after repair").
+    #[serde(default)]
+    pub rebaseline: bool,
+}
+
+/// Longest `work` text (characters).
+const MAX_WORK_CHARS: usize = 2000;
+
+/// Stores a visit, labels the open events, bumps the re-baseline generation when asked.
+///
+/// # Errors
+/// 400 for a bad visit.
+pub fn add_visit(conn: &Connection, id: &str, v: &Visit) -> Result<Value, ApiError> {
+    if !v.time.is_finite() {
+        return Err(ApiError::bad("time must be a number of seconds"));
+    }
+    if !matches!(v.finding.as_str(), "confirmed" | "not_found") {
+        return Err(ApiError::bad(format!(
+            "finding `{}`, expected confirmed or not_found",
+            one_line(&v.finding)
+        )));
+    }
+    if v.work.chars().count() > MAX_WORK_CHARS {
+        return Err(ApiError::bad(format!(
+            "work is longer than {MAX_WORK_CHARS} characters"
+        )));
+    }
+    let db = |e: rusqlite::Error| ApiError::internal(format!("database: {e}"));
+    let tx = conn.unchecked_transaction().map_err(db)?;
+    let labelled = tx
+        .execute(
+            "UPDATE events SET label = ?2 WHERE elevator = ?1 AND label IS NULL AND level != 'normal' AND time <= ?3",
+            params![id, v.finding, v.time],
+        )
+        .map_err(db)?;
+    tx.execute(
+        "INSERT INTO maintenance (elevator, time, work, finding, rebaseline, labelled, created) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7)",
+        params![id, v.time, v.work, v.finding, v.rebaseline, labelled as i64, store::now()],
+    )
+    .map_err(db)?;
+    if v.rebaseline {
+        tx.execute(
+            "UPDATE elevators SET rebaseline_gen = rebaseline_gen + 1 WHERE id = ?1",
+            [id],
+        )
+        .map_err(db)?;
+    }
+    tx.commit().map_err(db)?;
+    Ok(json!({"id": id, "labelled_events": labelled, "rebaseline": v.rebaseline}))
+}
+
+/// The visits of an elevator, oldest first.
+///
+/// # Errors
+/// The database's.
+pub fn visit_list(
+    conn: &Connection,
+    id: &str,
+    info: &ElevatorInfo,
+) -> rusqlite::Result<Vec<Value>> {
+    let mut st = conn.prepare(
+        "SELECT time, work, finding, rebaseline, labelled, created FROM maintenance WHERE elevator = ?1 ORDER BY id",
+    )?;
+    let rows = st
+        .query_map([id], |r| {
+            let t: f64 = r.get(0)?;
+            Ok(json!({
+                "time": t,
+                "time_text": time_text(t, info),
+                "work": r.get::<_, String>(1)?,
+                "finding": r.get::<_, String>(2)?,
+                "rebaseline": r.get::<_, bool>(3)?,
+                "labelled_events": r.get::<_, i64>(4)?,
+                "created": r.get::<_, f64>(5)?,
+            }))
+        })?
+        .collect();
+    rows
+}
+
+/// The stored trip rows of `[from, to]` (by start), oldest first.
+///
+/// # Errors
+/// The database's.
+pub fn trip_rows(
+    conn: &Connection,
+    id: &str,
+    from: &Option<f64>,
+    to: &Option<f64>,
+    limit: usize,
+    info: &ElevatorInfo,
+) -> rusqlite::Result<Vec<Value>> {
+    let mut st = conn.prepare(
+        "SELECT row FROM trips WHERE elevator = ?1 AND start >= ?2 AND start <= ?3 ORDER BY start, seq LIMIT ?4",
+    )?;
+    let rows = st
+        .query_map(
+            params![
+                id,
+                from.unwrap_or(f64::MIN),
+                to.unwrap_or(f64::MAX),
+                limit as i64
+            ],
+            |r| r.get::<_, String>(0),
+        )?
+        .map(|r| r.map(|line| trip_object(&line, info)))
+        .collect();
+    rows
+}
+
+/// Events, fleet-wide or of one elevator, oldest first, each as the JSON text of one object:
+/// `elevator`, `id`, `seq`, then the events.jsonl line's fields as stored (spliced as text, so
+/// every float keeps the digits `liftwatch monitor` writes), then `time_text` and `label`.
+///
+/// # Errors
+/// The database's.
+pub fn event_list(
+    conn: &Connection,
+    id: Option<&str>,
+    from: &Option<f64>,
+    to: &Option<f64>,
+    level: Option<&str>,
+    limit: usize,
+) -> rusqlite::Result<Vec<String>> {
+    let mut st = conn.prepare(
+        "SELECT e.id, e.elevator, e.seq, e.line, e.label, e.time, el.info FROM events e
+         JOIN elevators el ON el.id = e.elevator
+         WHERE (?1 IS NULL OR e.elevator = ?1) AND e.time >= ?2 AND e.time <= ?3
+           AND (?4 IS NULL OR e.level = ?4)
+         ORDER BY e.time, e.id LIMIT ?5",
+    )?;
+    let rows = st
+        .query_map(
+            params![
+                id,
+                from.unwrap_or(f64::MIN),
+                to.unwrap_or(f64::MAX),
+                level,
+                limit as i64
+            ],
+            |r| {
+                let line: String = r.get(3)?;
+                let info: ElevatorInfo =
+                    serde_json::from_str(&r.get::<_, String>(6)?).unwrap_or_default();
+                let head = json!({
+                    "elevator": r.get::<_, String>(1)?,
+                    "id": r.get::<_, i64>(0)?,
+                    "seq": r.get::<_, i64>(2)?,
+                })
+                .to_string();
+                let tail = json!({
+                    "time_text": time_text(r.get(5)?, &info),
+                    "label": r.get::<_, Option<String>>(4)?,
+                })
+                .to_string();
+                // The stored line is one JSON object written by `Event::to_json_line`.
+                let body = line
+                    .trim()
+                    .strip_prefix('{')
+                    .and_then(|b| b.strip_suffix('}'))
+                    .unwrap_or("");
+                let sep = if body.is_empty() { "" } else { "," };
+                Ok(format!(
+                    "{},{body}{sep}{}",
+                    head.strip_suffix('}').unwrap_or(&head),
+                    tail.strip_prefix('{').unwrap_or(&tail)
+                ))
+            },
+        )?
+        .collect();
+    rows
+}
+
+/// Per elevator: batches stored but not yet applied and checkpointed, and the wall-clock
+/// age of the oldest of them (s).
+///
+/// # Errors
+/// The database's.
+pub fn queue_depths(conn: &Connection) -> rusqlite::Result<HashMap<String, (i64, f64)>> {
+    let mut st = conn.prepare(
+        "SELECT b.elevator, COUNT(*), MIN(b.received) FROM batches b
+         LEFT JOIN checkpoints c ON c.elevator = b.elevator
+         WHERE b.seq > COALESCE(c.applied_seq, 0) GROUP BY b.elevator",
+    )?;
+    let now = store::now();
+    let rows = st
+        .query_map([], |r| {
+            Ok((
+                r.get::<_, String>(0)?,
+                (r.get::<_, i64>(1)?, now - r.get::<_, f64>(2)?),
+            ))
+        })?
+        .collect();
+    rows
+}
+
+/// The Prometheus text of `/metrics`.
+pub fn metrics_text(s: &Shared, depths: &HashMap<String, (i64, f64)>) -> String {
+    use std::fmt::Write;
+    let mut out = String::new();
+    let snaps = s
+        .snapshots
+        .read()
+        .unwrap_or_else(std::sync::PoisonError::into_inner);
+    let ingest = s
+        .ingest
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner)
+        .clone();
+    let mut ids: Vec<&String> = snaps
+        .keys()
+        .chain(ingest.keys())
+        .chain(depths.keys())
+        .collect();
+    ids.sort();
+    ids.dedup();
+    let mut family = |name: &str, help: &str, kind: &str, f: &dyn Fn(&str) -> Option<f64>| {
+        let _ = writeln!(out, "# HELP {name} {help}\n# TYPE {name} {kind}");
+        for id in &ids {
+            if let Some(v) = f(id) {
+                let _ = writeln!(out, "{name}{{elevator=\"{id}\"}} {}", prom(v));
+            }
+        }
+    };
+    let level_num = |l: &str| match l {
+        "alarm" => 2.0,
+        "advisory" => 1.0,
+        _ => 0.0,
+    };
+    family(
+        "liftwatch_risk",
+        "Combined risk R of the elevator's monitor.",
+        "gauge",
+        &|id| snaps.get(id).map(|x| x.risk).filter(|r| r.is_finite()),
+    );
+    family(
+        "liftwatch_level",
+        "Level: 0 normal, 1 advisory, 2 alarm.",
+        "gauge",
+        &|id| snaps.get(id).map(|x| level_num(&x.level)),
+    );
+    family(
+        "liftwatch_rows_ingested_total",
+        "Good telemetry rows stored (since start).",
+        "counter",
+        &|id| ingest.get(id).map(|x| x.rows as f64),
+    );
+    family(
+        "liftwatch_rows_bad_total",
+        "Bad telemetry rows skipped (since start).",
+        "counter",
+        &|id| ingest.get(id).map(|x| x.bad as f64),
+    );
+    family(
+        "liftwatch_rows_duplicate_total",
+        "Readings dropped as re-sent duplicates.",
+        "counter",
+        &|id| snaps.get(id).map(|x| x.counts.duplicate as f64),
+    );
+    family(
+        "liftwatch_rows_late_total",
+        "Readings dropped as older than the reorder window.",
+        "counter",
+        &|id| {
+            snaps
+                .get(id)
+                .map(|x| (x.counts.late + x.counts.late_current + x.counts.out_of_span) as f64)
+        },
+    );
+    family(
+        "liftwatch_samples_total",
+        "Aligned samples produced.",
+        "counter",
+        &|id| snaps.get(id).map(|x| x.counts.samples as f64),
+    );
+    family(
+        "liftwatch_queue_depth",
+        "Batches stored, not yet applied and checkpointed.",
+        "gauge",
+        &|id| Some(depths.get(id).map_or(0.0, |d| d.0 as f64)),
+    );
+    family(
+        "liftwatch_apply_lag_seconds",
+        "Wall-clock age of the oldest batch not yet checkpointed.",
+        "gauge",
+        &|id| Some(depths.get(id).map_or(0.0, |d| d.1.max(0.0))),
+    );
+    let _ = writeln!(
+        out,
+        "# HELP liftwatch_requests_refused_total Requests answered with a 4xx.\n# TYPE liftwatch_requests_refused_total counter\nliftwatch_requests_refused_total {}",
+        s.refused.load(std::sync::atomic::Ordering::Relaxed)
+    );
+    out
+}
+
+fn prom(v: f64) -> String {
+    if v.is_finite() {
+        format!("{v}")
+    } else if v.is_nan() {
+        "NaN".into()
+    } else if v > 0.0 {
+        "+Inf".into()
+    } else {
+        "-Inf".into()
+    }
+}

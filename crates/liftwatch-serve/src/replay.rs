@@ -1,0 +1,359 @@
+//! `liftwatch replay`: sends a raw `time,signal,value` log to a server in batches of
+//! `batch_s` seconds of log, at `speed`× real time (0: as fast as accepted).
+//!
+//! ```text
+//! rows (file order) ─ cut where the time passes batch start + batch_s ─ Sender::send(batch)
+//!                     failed send → same batch again after a pause (idempotent at the server:
+//!                     a re-sent reading is pending already, or older than its window)
+//! ```
+//!
+//! The sending side is the [`Sender`] trait: [`HttpSender`] speaks HTTP/1.1 over a plain TCP
+//! connection (a few dozen lines: no TLS, which a reverse proxy or a tunnel adds; one
+//! keep-alive connection, reopened after an error). Another transport (`mqtt://`) is one more
+//! implementation and one more arm in [`sender_for`].
+
+use std::io::{BufRead, BufReader, Read, Write};
+use std::net::TcpStream;
+use std::path::Path;
+use std::time::{Duration, Instant};
+
+/// Pause before a failed batch is sent again.
+const RETRY_PAUSE: Duration = Duration::from_millis(500);
+
+/// Attempts per batch before replay gives up: at [`RETRY_PAUSE`] about a minute of a server
+/// being away (a restart) is ridden out.
+const MAX_ATTEMPTS: u32 = 120;
+
+/// How long one request may take before it counts as failed.
+const REQUEST_TIMEOUT: Duration = Duration::from_secs(60);
+
+/// Largest response read (bytes): the server's answers are small JSON objects.
+const MAX_RESPONSE_BYTES: usize = 1 << 20;
+
+/// Where a batch goes: one implementation per transport.
+pub trait Sender {
+    /// Sends one batch of raw CSV rows (with the header) for elevator `id`.
+    ///
+    /// # Errors
+    /// [`SendError::Retry`] for what another attempt may cure (connection refused or broken,
+    /// a 5xx or 429), [`SendError::Fatal`] for what it cannot (a 4xx: bad token, bad data).
+    fn send(&mut self, id: &str, csv: &[u8]) -> Result<SendReply, SendError>;
+}
+
+/// The server's counts for one batch.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SendReply {
+    /// Rows accepted.
+    pub accepted: u64,
+    /// Rows refused as bad.
+    pub bad: u64,
+}
+
+/// Why a send failed.
+#[derive(Debug)]
+pub enum SendError {
+    /// Worth another attempt.
+    Retry(String),
+    /// Not worth one.
+    Fatal(String),
+}
+
+/// `--to` as a sender.
+///
+/// # Errors
+/// One line for a URL of a scheme this build does not speak.
+pub fn sender_for(url: &str, token: Option<String>) -> Result<Box<dyn Sender>, String> {
+    if let Some(rest) = url.strip_prefix("http://") {
+        let (host, base) = match rest.find('/') {
+            Some(i) => (&rest[..i], rest[i..].trim_end_matches('/')),
+            None => (rest, ""),
+        };
+        if host.is_empty() {
+            return Err(format!("--to `{url}`: no host"));
+        }
+        return Ok(Box::new(HttpSender {
+            host: host.to_string(),
+            base: base.to_string(),
+            token,
+            conn: None,
+        }));
+    }
+    if url.starts_with("https://") {
+        return Err(format!("--to `{url}`: https is not spoken by replay; send to the server's plain address, or through a local TLS tunnel"));
+    }
+    if url.starts_with("mqtt://") {
+        return Err(format!(
+            "--to `{url}`: MQTT is not built in yet; use http://HOST:PORT"
+        ));
+    }
+    Err(format!("--to `{url}`: expected http://HOST:PORT"))
+}
+
+/// HTTP/1.1 `POST {base}/api/v1/elevators/{id}/telemetry` on one keep-alive connection.
+pub struct HttpSender {
+    host: String,
+    base: String,
+    token: Option<String>,
+    conn: Option<BufReader<TcpStream>>,
+}
+
+impl HttpSender {
+    fn connect(&mut self) -> Result<&mut BufReader<TcpStream>, SendError> {
+        if self.conn.is_none() {
+            let s = TcpStream::connect(&self.host)
+                .map_err(|e| SendError::Retry(format!("{}: {e}", self.host)))?;
+            s.set_read_timeout(Some(REQUEST_TIMEOUT)).ok();
+            s.set_write_timeout(Some(REQUEST_TIMEOUT)).ok();
+            s.set_nodelay(true).ok();
+            self.conn = Some(BufReader::new(s));
+        }
+        Ok(self.conn.as_mut().expect("set above"))
+    }
+
+    fn exchange(&mut self, id: &str, csv: &[u8]) -> Result<(u16, String), SendError> {
+        let mut head = format!(
+            "POST {}/api/v1/elevators/{id}/telemetry HTTP/1.1\r\nHost: {}\r\nContent-Type: text/csv\r\nContent-Length: {}\r\n",
+            self.base,
+            self.host,
+            csv.len()
+        );
+        if let Some(t) = &self.token {
+            head.push_str(&format!("Authorization: Bearer {t}\r\n"));
+        }
+        head.push_str("\r\n");
+        let io = |e: std::io::Error| SendError::Retry(format!("connection: {e}"));
+        let r = self.connect()?;
+        let s = r.get_mut();
+        s.write_all(head.as_bytes()).map_err(io)?;
+        s.write_all(csv).map_err(io)?;
+        let mut status_line = String::new();
+        r.read_line(&mut status_line).map_err(io)?;
+        let status: u16 = status_line
+            .split_whitespace()
+            .nth(1)
+            .and_then(|c| c.parse().ok())
+            .ok_or_else(|| {
+                SendError::Retry(format!("not an HTTP answer: `{}`", status_line.trim()))
+            })?;
+        let (mut len, mut close) = (None, false);
+        loop {
+            let mut line = String::new();
+            if r.read_line(&mut line).map_err(io)? == 0 {
+                return Err(SendError::Retry("connection closed in the headers".into()));
+            }
+            let line = line.trim_end();
+            if line.is_empty() {
+                break;
+            }
+            if let Some((k, v)) = line.split_once(':') {
+                let k = k.trim().to_ascii_lowercase();
+                if k == "content-length" {
+                    len = v.trim().parse::<usize>().ok();
+                } else if k == "connection" && v.trim().eq_ignore_ascii_case("close") {
+                    close = true;
+                } else if k == "transfer-encoding" {
+                    return Err(SendError::Fatal(
+                        "chunked answers are not read by replay".into(),
+                    ));
+                }
+            }
+        }
+        let len = len.unwrap_or(0).min(MAX_RESPONSE_BYTES);
+        let mut body = vec![0u8; len];
+        r.read_exact(&mut body).map_err(io)?;
+        if close {
+            self.conn = None;
+        }
+        Ok((status, String::from_utf8_lossy(&body).into_owned()))
+    }
+}
+
+impl Sender for HttpSender {
+    fn send(&mut self, id: &str, csv: &[u8]) -> Result<SendReply, SendError> {
+        let (status, body) = match self.exchange(id, csv) {
+            Ok(x) => x,
+            Err(e) => {
+                self.conn = None;
+                return Err(e);
+            }
+        };
+        let v: serde_json::Value = serde_json::from_str(&body).unwrap_or_default();
+        match status {
+            200..=299 => Ok(SendReply {
+                accepted: v["accepted"].as_u64().unwrap_or(0),
+                bad: v["bad"].as_u64().unwrap_or(0),
+            }),
+            429 | 500..=599 => {
+                self.conn = None;
+                Err(SendError::Retry(format!(
+                    "HTTP {status}: {}",
+                    v["error"].as_str().unwrap_or(&body)
+                )))
+            }
+            _ => Err(SendError::Fatal(format!(
+                "HTTP {status}: {}",
+                v["error"].as_str().unwrap_or(&body)
+            ))),
+        }
+    }
+}
+
+/// How to replay.
+#[derive(Clone, Debug)]
+pub struct ReplayOptions {
+    /// Seconds of log per batch.
+    pub batch_s: f64,
+    /// Multiple of real time; 0: as fast as accepted.
+    pub speed: f64,
+    /// Progress lines on stderr (a terminal).
+    pub progress: bool,
+}
+
+/// What a replay did.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct ReplaySummary {
+    /// Batches sent.
+    pub batches: u64,
+    /// Rows read from the log (header excluded).
+    pub rows: u64,
+    /// Rows the server accepted.
+    pub accepted: u64,
+    /// Rows it refused as bad.
+    pub bad: u64,
+    /// Attempts that failed and were retried.
+    pub retries: u64,
+    /// Wall time (s).
+    pub seconds: f64,
+}
+
+/// Reads `input` (`.gz` and `-` as everywhere) and sends it batch by batch.
+///
+/// # Errors
+/// One line: the input, a batch the server refused, a server away for too long.
+pub fn replay(
+    input: &Path,
+    id: &str,
+    sender: &mut dyn Sender,
+    opts: &ReplayOptions,
+) -> Result<ReplaySummary, String> {
+    if !crate::config::valid_id(id) {
+        return Err(format!(
+            "--id `{}` is not [A-Za-z0-9_-]{{1,64}}",
+            crate::config::one_line(id)
+        ));
+    }
+    if !(opts.batch_s.is_finite() && opts.batch_s > 0.0)
+        || !(opts.speed.is_finite() && opts.speed >= 0.0)
+    {
+        return Err("--batch-s must be positive and --speed at least 0".into());
+    }
+    let file = liftwatch::input::Input::open(input).map_err(|e| e.to_string())?;
+    let mut lines = BufReader::new(file).lines();
+    let header = lines
+        .next()
+        .ok_or_else(|| format!("{}: empty", input.display()))?
+        .map_err(|e| format!("{}: {e}", input.display()))?;
+    if !header
+        .trim()
+        .to_ascii_lowercase()
+        .starts_with("time,signal,value")
+    {
+        return Err(format!(
+            "{}: not a raw `time,signal,value` log",
+            input.display()
+        ));
+    }
+    let started = Instant::now();
+    let mut sum = ReplaySummary::default();
+    let mut batch = Vec::new();
+    let (mut batch_start, mut first_t) = (f64::NAN, f64::NAN);
+    let mut send = |batch: &mut Vec<u8>,
+                    first_t: f64,
+                    t_end: f64,
+                    sum: &mut ReplaySummary|
+     -> Result<(), String> {
+        if batch.is_empty() {
+            return Ok(());
+        }
+        if opts.speed > 0.0 && first_t.is_finite() {
+            let due = Duration::from_secs_f64(((t_end - first_t) / opts.speed).max(0.0));
+            if let Some(wait) = due.checked_sub(started.elapsed()) {
+                std::thread::sleep(wait);
+            }
+        }
+        let mut body = b"time,signal,value\n".to_vec();
+        body.extend_from_slice(batch);
+        let mut attempt = 0;
+        loop {
+            attempt += 1;
+            match sender.send(id, &body) {
+                Ok(r) => {
+                    sum.accepted += r.accepted;
+                    sum.bad += r.bad;
+                    break;
+                }
+                Err(SendError::Fatal(e)) => return Err(format!("batch {}: {e}", sum.batches + 1)),
+                Err(SendError::Retry(e)) if attempt < MAX_ATTEMPTS => {
+                    sum.retries += 1;
+                    if opts.progress || attempt == 1 {
+                        eprintln!(
+                            "replay: batch {} failed ({e}); sending it again",
+                            sum.batches + 1
+                        );
+                    }
+                    std::thread::sleep(RETRY_PAUSE);
+                }
+                Err(SendError::Retry(e)) => {
+                    return Err(format!(
+                        "batch {}: {e}, {attempt} attempts",
+                        sum.batches + 1
+                    ))
+                }
+            }
+        }
+        sum.batches += 1;
+        batch.clear();
+        if opts.progress && sum.batches % 100 == 0 {
+            eprint!("\rreplay: {} batches, {} rows", sum.batches, sum.rows);
+        }
+        Ok(())
+    };
+    let mut last_t = f64::NAN;
+    for line in lines {
+        let line = line.map_err(|e| format!("{}: {e}", input.display()))?;
+        if line.trim().is_empty() {
+            continue;
+        }
+        sum.rows += 1;
+        // Cut on the log's own time; a row whose time does not parse rides along (the server
+        // counts it bad).
+        let t = line
+            .split(',')
+            .next()
+            .and_then(|f| f.trim().parse::<f64>().ok())
+            .or_else(|| {
+                line.split(',')
+                    .next()
+                    .and_then(|f| liftwatch::ingest::time::parse_time(f.trim(), &mut None).ok())
+            });
+        if let Some(t) = t {
+            if first_t.is_nan() {
+                first_t = t;
+                batch_start = t;
+            }
+            if t >= batch_start + opts.batch_s {
+                send(&mut batch, first_t, last_t, &mut sum)?;
+                batch_start = t;
+            }
+            last_t = t;
+        }
+        batch.extend_from_slice(line.as_bytes());
+        batch.push(b'\n');
+    }
+    send(&mut batch, first_t, last_t, &mut sum)?;
+    if opts.progress {
+        eprintln!();
+    }
+    sum.seconds = started.elapsed().as_secs_f64();
+    Ok(sum)
+}

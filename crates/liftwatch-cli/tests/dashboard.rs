@@ -371,7 +371,7 @@ fn the_dashboard_shows_which_elevator_needs_a_visit_in_chromium() {
     );
     assert!(car_row.contains("Test bank, car 1"), "its name: {car_row}");
     assert!(
-        car_row.contains("2026-03-03"),
+        car_row.contains("2026-03-04 00:59"),
         "the last data's date: {car_row}"
     );
     assert!(
@@ -423,7 +423,7 @@ fn the_dashboard_shows_which_elevator_needs_a_visit_in_chromium() {
         ("elevator-laptop.png", &car_url, 1366, 768),
         ("elevator-phone.png", &car_url, 390, 844),
         ("elevator-laptop-full.png", &car_url, 1366, 2600),
-        ("elevator-phone-full.png", &car_url, 390, 5200),
+        ("elevator-phone-full.png", &car_url, 390, 6400),
     ] {
         let png = shots.join(name);
         let _ = std::fs::remove_file(&png);

@@ -134,6 +134,12 @@
     return s < 0 ? `\u2212${out}` : out;
   }
 
+  /** An elevator without a stored sample has no last time (the server may send 0 then). */
+  function normalize(s) {
+    if (s && s.samples === 0 && !s.last_time_text) s.last_time = null;
+    return s;
+  }
+
   const levelOf = (s) => (s && s.verdict && s.verdict.level) || 'none';
   const levelWord = (lv) => (lv === 'none' ? 'no model' : lv);
   /** A model but no verdict yet: the monitor has not watched a sample. */
@@ -504,7 +510,7 @@
     const stop = poller(async () => {
       try {
         const j = await api('/elevators');
-        list = Array.isArray(j.elevators) ? j.elevators : [];
+        list = Array.isArray(j.elevators) ? j.elevators.map(normalize) : [];
         setError('fleet', null);
         stamp(true);
       } catch (e) {
@@ -527,7 +533,7 @@
     const span = Math.max(x1 - x0, 1);
     const steps = [600, 1800, 3600, 3 * 3600, 6 * 3600, 12 * 3600, DAY, 2 * DAY, 5 * DAY, 7 * DAY,
       14 * DAY, 30 * DAY, 60 * DAY, 91 * DAY, 182 * DAY, 365 * DAY];
-    const want = Math.max(2, Math.floor(px / 90));
+    const want = Math.max(2, Math.floor(px / 70));
     const step = steps.find((s) => span / s <= want) || steps[steps.length - 1];
     const off = isCal(x0) ? clock.off : 0;
     const first = Math.ceil((x0 + off) / step) * step - off;
@@ -571,26 +577,13 @@
     const W = Math.max(240, Math.round(o.width));
     const H = o.height;
     const m = { l: 56, r: 12, t: 10, b: 40 };
-    const pw = W - m.l - m.r;
     const ph = H - m.t - m.b;
     const { x0, x1 } = o;
-    const sx = (x) => m.l + ((x - x0) / Math.max(x1 - x0, 1e-9)) * pw;
     const floor = o.yLog ? o.y0 : -Infinity;
     const ty = (y) => (o.yLog ? Math.log10(Math.max(y, floor)) : y);
     const Y0 = ty(o.y0);
     const Y1 = ty(o.y1);
-    const sy = (y) => m.t + ph - ((ty(y) - Y0) / Math.max(Y1 - Y0, 1e-12)) * ph;
-    const clampY = (py) => Math.min(m.t + ph + 2, Math.max(m.t - 2, py));
-    const parts = [];
-    parts.push(`<svg class="chart" xmlns="http://www.w3.org/2000/svg" width="${W}" height="${H}" viewBox="0 0 ${W} ${H}" role="img" aria-label="${esc(o.aria || '')}">`);
-    parts.push(`<defs><clipPath id="${o.id}-clip"><rect x="${m.l}" y="${m.t - 3}" width="${pw}" height="${ph + 6}"/></clipPath></defs>`);
-    for (const b of o.bands || []) {
-      const a = Math.max(sx(b.x0), m.l);
-      const z = Math.min(sx(b.x1), m.l + pw);
-      if (z > a) parts.push(`<rect x="${a.toFixed(1)}" y="${m.t}" width="${(z - a).toFixed(1)}" height="${ph}" fill="${b.fill}"/>`);
-    }
-    // y grid and labels
-    parts.push('<g class="grid">');
+    // y ticks first: the left margin fits their longest label beside the axis title
     let yt = [];
     let stepDecimals = 0;
     if (o.yLog) {
@@ -605,6 +598,22 @@
       for (let v = Math.ceil(o.y0 / st) * st; v <= o.y1 + st * 1e-6; v += st) yt.push(Math.abs(v) < st * 1e-9 ? 0 : v);
     }
     const yl = (v) => (o.yLog ? (v >= 1e4 || v < 1e-2 ? `1e${Math.round(Math.log10(v))}` : sig(v)) : v.toFixed(stepDecimals).replace('-', '\u2212'));
+    const longest = yt.reduce((n, v) => Math.max(n, yl(v).length), 1);
+    m.l = Math.round((o.yTitle ? 24 : 8) + longest * 7.2 + 8);
+    const pw = W - m.l - m.r;
+    const sx = (x) => m.l + ((x - x0) / Math.max(x1 - x0, 1e-9)) * pw;
+    const sy = (y) => m.t + ph - ((ty(y) - Y0) / Math.max(Y1 - Y0, 1e-12)) * ph;
+    const clampY = (py) => Math.min(m.t + ph + 2, Math.max(m.t - 2, py));
+    const parts = [];
+    parts.push(`<svg class="chart" xmlns="http://www.w3.org/2000/svg" width="${W}" height="${H}" viewBox="0 0 ${W} ${H}" role="img" aria-label="${esc(o.aria || '')}">`);
+    parts.push(`<defs><clipPath id="${o.id}-clip"><rect x="${m.l}" y="${m.t - 3}" width="${pw}" height="${ph + 6}"/></clipPath></defs>`);
+    for (const b of o.bands || []) {
+      const a = Math.max(sx(b.x0), m.l);
+      const z = Math.min(sx(b.x1), m.l + pw);
+      if (z > a) parts.push(`<rect x="${a.toFixed(1)}" y="${m.t}" width="${(z - a).toFixed(1)}" height="${ph}" fill="${b.fill}"/>`);
+    }
+    // y grid and labels
+    parts.push('<g class="grid">');
     for (const v of yt) {
       const y = sy(v).toFixed(1);
       parts.push(`<line x1="${m.l}" x2="${m.l + pw}" y1="${y}" y2="${y}"/>`);
@@ -807,16 +816,19 @@
       };
       const adv = th('advisory level');
       const alm = th('alarm level');
+      const lim = th('physical limit');
       let lo = vals.length ? quantile(vals, 0.01) : -1;
       let hi = vals.length ? quantile(vals, 0.99) : 1;
       lo = Math.min(lo, 0);
       hi = Math.max(hi, 0, fin(adv) ? adv : -Infinity);
       if (fin(alm) && alm < hi * 3) hi = Math.max(hi, alm);
+      if (fin(lim) && lim < hi * 3) hi = Math.max(hi, lim);
       const pad2 = (hi - lo) * 0.1 || 1;
       const now = v && Array.isArray(v.drifts) ? v.drifts.find((d) => d.mode === p.mode) : null;
       const hl = [{ y: 0, label: '', color: '#8b95a1', dash: '' }];
       if (fin(adv)) hl.push({ y: adv, label: `advisory ${signed(adv, p.unit === 'N' ? 0 : 1)} ${p.unit}`, color: '#8a5000', dash: '8 4' });
       if (fin(alm)) hl.push({ y: alm, label: `alarm ${signed(alm, p.unit === 'N' ? 0 : 1)} ${p.unit}`, color: '#b3261e', dash: '3 3' });
+      if (fin(lim)) hl.push({ y: lim, label: `physical limit ${signed(lim, p.unit === 'N' ? 0 : 1)} ${p.unit}`, color: '#374151', dash: '10 3 2 3' });
       const svg = vals.length ? lineChart({
         id: `${id}-${i}`, width: pwid, height: 200, x0, x1, clock, yLog: false,
         y0: lo - pad2, y1: hi + pad2, yTitle: p.unit === 'N' ? 'N' : '%',
@@ -896,9 +908,10 @@
   function paramTable(params) {
     const rows = paramRows(params);
     if (!rows.length) return '<p class="muted">No parameters stated.</p>';
-    return '<div class="table-wrap"><table class="data"><thead><tr><th>parameter</th><th>value</th><th>\u00b1 SE</th><th>unit</th><th></th></tr></thead><tbody>' +
-      rows.map((r) => `<tr><td><code>${esc(r.name)}</code></td><td class="num">${esc(typeof r.value === 'number' ? sig(r.value) : String(r.value ?? 'n/a'))}</td>` +
-        `<td class="num">${esc(fin(r.se) ? sig(r.se) : '')}</td><td>${esc(r.unit || '')}</td><td class="small muted">${esc(r.note)}</td></tr>`).join('') +
+    return '<div class="table-wrap"><table class="data compact"><thead><tr><th>parameter</th><th>value</th><th>\u00b1 SE</th><th>unit</th></tr></thead><tbody>' +
+      rows.map((r) => `<tr><td><code>${esc(r.name)}</code>${r.note ? `<br><span class="small muted">${esc(r.note)}</span>` : ''}</td>` +
+        `<td class="num">${esc(typeof r.value === 'number' ? sig(r.value) : String(r.value ?? 'n/a'))}</td>` +
+        `<td class="num">${esc(fin(r.se) ? sig(r.se) : '')}</td><td class="nowrap">${esc(r.unit || '')}</td></tr>`).join('') +
       '</tbody></table></div>';
   }
 
@@ -960,8 +973,8 @@
     return '';
   }
 
-  function visitsTable(visits, clock) {
-    if (!visits.length) return '<p class="muted">No maintenance visits recorded. Record one with <code>POST /api/v1/elevators/ID/maintenance</code>: it labels the open events and can start a re-baseline.</p>';
+  function visitsTable(visits, clock, id) {
+    if (!visits.length) return `<p class="muted">No maintenance visits recorded. Record one with <code>POST /api/v1/elevators/${esc(id)}/maintenance</code>: it labels the open events and can start a re-baseline.</p>`;
     return '<div class="table-wrap"><table class="data"><thead><tr><th>when</th><th>work</th><th>finding</th><th>re-baseline</th><th>events labelled</th></tr></thead><tbody>' +
       visits.slice().sort((a, b) => (b.time ?? 0) - (a.time ?? 0)).map((x) =>
         `<tr><td class="nowrap">${esc(whenText(x.time, x.time_text, clock))}</td><td>${esc(x.work || '')}</td>` +
@@ -1072,7 +1085,8 @@
     const shown = all.slice(0, 12);
     const narrow = width < 700;
     const sw = narrow ? width : (width - 32) / 3;
-    const strips = DRIFT_PANELS.map((p) => peerStrip(shown, me, p, sw)).filter(Boolean);
+    const withValues = (p) => shown.filter((x) => { const d = driftOf(x, p.mode); return d && fin(d.value); }).length;
+    const strips = DRIFT_PANELS.filter((p) => withValues(p) >= 2).map((p) => peerStrip(shown, me, p, sw)).filter(Boolean);
     return `<p>Compared with ${peers.length} elevator${peers.length > 1 ? 's' : ''} of ${esc(basis)}.` +
       (lines.length ? ` ${esc(lines.join('; '))}.` : '') + '</p>' +
       (strips.length ? `<div class="panels">${strips.map((x) => `<div>${x}</div>`).join('')}</div>` +
@@ -1129,9 +1143,9 @@
     $app.innerHTML = `<p class="crumbs"><a href="#/">\u2190 Fleet</a></p><div id="ev-head"><h1>${esc(id)}</h1></div>` +
       '<div id="ev-verdict"></div>' +
       '<section class="card"><h2>Risk over time</h2><div id="ev-risk"><p class="muted">Loading\u2026</p></div>' +
-      `<p class="chart-note">One point per trip, the last ${RISK_WINDOW_DAYS} days at most.` + ' Combined R solid; per-mode risks dashed with markers (they can coincide); shaded spans: the level at each trip.</p></section>' +
+      `<p class="chart-note">One point per trip, the last ${RISK_WINDOW_DAYS} days at most.` + ' Combined R solid; per-mode risks dashed with markers (they can coincide); shaded spans: the level at each trip (the sequential test can raise it before R reaches its line).</p></section>' +
       '<section class="card"><h2>Drift in physical units</h2><div id="ev-drift"></div>' +
-      '<p class="chart-note">Per trip, as the monitor re-identifies it; dashed lines: the drift that, held, brings the mode\u2019s risk to its level.</p></section>' +
+      '<p class="chart-note">Per trip, as the monitor re-identifies it; dashed lines: the drift that, held, brings the mode\u2019s risk to its level; dash-dot: the physical limit.</p></section>' +
       '<section class="card"><h2>Peers</h2><div id="ev-peers"></div></section>' +
       '<section class="card"><h2>Events</h2><div id="ev-events"></div></section>' +
       '<div class="grid2"><section class="card"><h2>Usage</h2><div id="ev-usage"></div></section>' +
@@ -1192,7 +1206,7 @@
         return;
       }
       setError('summary', null);
-      summary = sum.value;
+      summary = normalize(sum.value);
       const s = summary;
       const clock = clockOf(s);
       document.title = `${displayName(s)} \u2014 liftwatch`;
@@ -1218,8 +1232,8 @@
           `${s.model.fingerprint ? ` <span class="small muted">fingerprint <code>${esc(String(s.model.fingerprint).slice(0, 16))}</code></span>` : ''}</p>${paramTable(s.model.parameters)}`
         : '<p class="muted">No active model.</p>');
       if (models.status === 'fulfilled') { setError('models', null); put(el('models'), modelsTable(models.value.models || [], clock)); } else { setError('models', models.reason.message); if (first) put(el('models'), '<p class="muted">not available</p>'); }
-      if (visits.status === 'fulfilled') { setError('visits', null); put(el('visits'), visitsTable(visits.value.visits || [], clock)); } else { setError('visits', visits.reason.message); if (first) put(el('visits'), '<p class="muted">not available</p>'); }
-      if (fleet.status === 'fulfilled') { setError('peers', null); fleetList = fleet.value.elevators || []; } else { setError('peers', fleet.reason.message); }
+      if (visits.status === 'fulfilled') { setError('visits', null); put(el('visits'), visitsTable(visits.value.visits || [], clock, s.id)); } else { setError('visits', visits.reason.message); if (first) put(el('visits'), '<p class="muted">not available</p>'); }
+      if (fleet.status === 'fulfilled') { setError('peers', null); fleetList = (fleet.value.elevators || []).map(normalize); } else { setError('peers', fleet.reason.message); }
       drawCharts();
       first = false;
       stamp(errors.size === 0);

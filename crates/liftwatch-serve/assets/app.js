@@ -637,14 +637,21 @@
     if (o.yTitle) parts.push(`<text transform="translate(13 ${m.t + ph / 2}) rotate(-90)" text-anchor="middle" font-size="12">${esc(o.yTitle)}</text>`);
     parts.push(`<line class="axis" x1="${m.l}" x2="${m.l + pw}" y1="${m.t + ph}" y2="${m.t + ph}"/>`);
     parts.push(`<line class="axis" x1="${m.l}" x2="${m.l}" y1="${m.t}" y2="${m.t + ph}"/>`);
-    // horizontal reference lines
+    // horizontal reference lines; a label too near one placed already goes to the right end
+    const placed = [];
     for (const h of o.hlines || []) {
       if (!fin(h.y)) continue;
       const ty2 = ty(h.y);
       if (ty2 < Y0 || ty2 > Y1) continue;
       const y = sy(h.y).toFixed(1);
       parts.push(`<line x1="${m.l}" x2="${m.l + pw}" y1="${y}" y2="${y}" stroke="${h.color}" stroke-width="1.5" stroke-dasharray="${h.dash || ''}"/>`);
-      if (h.label) parts.push(`<text x="${m.l + 4}" y="${(Number(y) - 4).toFixed(1)}" font-size="12" fill="${h.color}" font-weight="600" paint-order="stroke" stroke="#fff" stroke-width="3">${esc(h.label)}</text>`);
+      if (h.label) {
+        const ly = Number(y) - 4;
+        const left = !placed.some((p) => p.left && Math.abs(p.y - ly) < 14);
+        placed.push({ y: ly, left });
+        const x = left ? m.l + 4 : m.l + pw - 4;
+        parts.push(`<text x="${x.toFixed(1)}" y="${ly.toFixed(1)}" text-anchor="${left ? 'start' : 'end'}" font-size="12" fill="${h.color}" font-weight="600" paint-order="stroke" stroke="#fff" stroke-width="3">${esc(h.label)}</text>`);
+      }
     }
     // series
     parts.push(`<g clip-path="url(#${o.id}-clip)">`);

@@ -1,12 +1,13 @@
 //! The dashboard of `liftwatch serve` in a real browser: the server started on loopback with
 //! a fresh data directory, loaded with one small simulated elevator whose drive degrades (fit
 //! on its healthy day, the model uploaded, its degraded days replayed as fast as accepted, on
-//! a calendar clock in a zone of UTC+01:00) and a second of the same group without a model;
-//! then Debian's headless Chromium loads the fleet page and the elevator page, their DOM is
-//! checked (the fleet row, its level, the drift in physical units, the date and zone; the
-//! verdict, the charts, the peers) and screenshots at a laptop's (1366×768) and a phone's
-//! (390×844) size are written under `target/dashboard-screenshots/`, their paths printed.
-//! Skipped, saying why, on a machine without `chromium`.
+//! a calendar clock in a zone of UTC+01:00), a healthy peer of the same group (its training
+//! day replayed with the same model) and a third without a model; then Debian's headless
+//! Chromium loads the fleet page and the elevator page, their DOM is checked (the order, the
+//! levels in words, the drift in physical units, the date and zone; the verdict, the charts,
+//! the peers) and screenshots at a laptop's (1366×768) and a phone's (390×844) size are
+//! written under `target/dashboard-screenshots/`, their paths printed. Skipped, saying why,
+//! on a machine without `chromium`.
 
 mod common;
 
@@ -20,9 +21,10 @@ use std::time::{Duration, Instant};
 use common::Dir;
 
 const TOKEN: &str = "dashboard-test-token";
-/// The elevator that degrades, and its peer without a model.
+/// The elevator that degrades, a healthy peer of its group and a peer without a model.
 const CAR: &str = "car-1";
 const PEER: &str = "car-2";
+const SPARE: &str = "car-3";
 /// 2026-03-02 00:00 UTC: the degraded days are replayed on a calendar clock (the simulator's
 /// starts at 0), so that the pages show dates; whole days keep the hours of the traffic.
 const START_S: f64 = 1_772_409_600.0;
@@ -295,9 +297,14 @@ fn the_dashboard_shows_which_elevator_needs_a_visit_in_chromium() {
 
     let raw = dir.path("worn-calendar.csv");
     let end = shift_times(&worn.join("raw.csv"), &raw, START_S);
+    // The healthy peer: the training day itself, on the same calendar.
+    let peer_raw = dir.path("healthy-calendar.csv");
+    let peer_end = shift_times(&healthy.join("raw.csv"), &peer_raw, START_S);
 
     let server = Server::start(&dir.path("data"));
-    for (id, name) in [(CAR, "Test bank, car 1"), (PEER, "Test bank, car 2")] {
+    #[rustfmt::skip]
+    let cars = [(CAR, "Test bank, car 1"), (PEER, "Test bank, car 2"), (SPARE, "Test bank, car 3")];
+    for (id, name) in cars {
         let body = serde_json::json!({
             "name": name, "group": "Test bank", "timezone": "+01:00",
             "rated_load_kg": 1000.0, "rated_speed_mps": 1.6, "floors": 16,
@@ -310,29 +317,40 @@ fn the_dashboard_shows_which_elevator_needs_a_visit_in_chromium() {
         );
         assert!((200..300).contains(&status), "PUT {id}: {status} {text}");
     }
-    let (status, text) = server.request(
-        "POST",
-        &format!("/api/v1/elevators/{CAR}/models"),
-        "application/json",
-        &std::fs::read(&model).expect("the model was written"),
-    );
-    assert!(
-        (200..300).contains(&status),
-        "model upload: {status} {text}"
-    );
-    #[rustfmt::skip]
-    liftwatch(&["replay", "--input", s(&raw), "--id", CAR, "--to", &server.url,
-        "--speed", "0"], min(10));
+    for (id, log) in [(CAR, &raw), (PEER, &peer_raw)] {
+        let (status, text) = server.request(
+            "POST",
+            &format!("/api/v1/elevators/{id}/models"),
+            "application/json",
+            &std::fs::read(&model).expect("the model was written"),
+        );
+        assert!(
+            (200..300).contains(&status),
+            "model upload for {id}: {status} {text}"
+        );
+        #[rustfmt::skip]
+        liftwatch(&["replay", "--input", s(log), "--id", id, "--to", &server.url,
+            "--speed", "0"], min(10));
+    }
 
     // The server analyses what it accepted in the background: wait until it has watched the
     // log to its last minute (the aligner holds the newest samples back) and stated its level.
     let start = Instant::now();
+    let watched =
+        |e: &serde_json::Value| e["verdict"]["time"].as_f64().unwrap_or(f64::NEG_INFINITY);
     let car = loop {
         let fleet = server.get_json("/api/v1/elevators");
         let car = summary(&fleet, CAR).expect("the elevator is listed");
+        let peer = summary(&fleet, PEER).expect("the peer is listed");
         let level = car["verdict"]["level"].as_str().unwrap_or("").to_string();
-        let watched = car["verdict"]["time"].as_f64().unwrap_or(f64::NEG_INFINITY);
-        if (level == "advisory" || level == "alarm") && watched >= end - 60.0 {
+        if (level == "advisory" || level == "alarm")
+            && watched(&car) >= end - 60.0
+            && watched(&peer) >= peer_end - 60.0
+        {
+            assert_eq!(
+                peer["verdict"]["level"], "normal",
+                "the healthy peer: {peer}"
+            );
             break car;
         }
         assert!(
@@ -370,7 +388,11 @@ fn the_dashboard_shows_which_elevator_needs_a_visit_in_chromium() {
     let peer_row = dom
         .find(&format!("data-id=\"{PEER}\""))
         .expect("a fleet row for the peer");
+    let spare_row = dom
+        .find(&format!("data-id=\"{SPARE}\""))
+        .expect("a fleet row for the car without a model");
     assert!(row < peer_row, "the car at risk comes first");
+    assert!(peer_row < spare_row, "the car without a model comes last");
     let car_row = &dom[row..peer_row];
     assert!(
         car_row.contains(&format!("badge lv-{level}\">{level}<")),
@@ -396,8 +418,12 @@ fn the_dashboard_shows_which_elevator_needs_a_visit_in_chromium() {
         "what to inspect: {car_row}"
     );
     assert!(
-        dom[peer_row..].contains("no model"),
-        "the peer without a model says so"
+        dom[peer_row..spare_row].contains("badge lv-normal\">normal<"),
+        "the healthy peer is normal"
+    );
+    assert!(
+        dom[spare_row..].contains("no model"),
+        "the car without a model says so"
     );
     assert!(
         !dom.contains("class=\"error\" role=\"alert\">"),
@@ -421,6 +447,10 @@ fn the_dashboard_shows_which_elevator_needs_a_visit_in_chromium() {
     assert!(dom.contains("since 2 Mar 2026"), "since when");
     assert!(dom.contains("advisory level"), "the risk chart's levels");
     assert!(dom.contains("Test bank, car 2"), "the peer is compared");
+    assert!(
+        dom.contains("aria-label=\"Kd (drive) of this car and its peers\""),
+        "the peers' drifts drawn"
+    );
     assert!(dom.contains("Model versions"), "the model registry");
 
     let mut written = Vec::new();

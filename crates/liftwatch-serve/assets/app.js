@@ -434,11 +434,13 @@
       why = waiting(s) ? `<span class="muted">model v${esc(s.model_version)} active, no data watched yet</span>`
         : '<span class="muted">no active model yet</span>';
     }
+    const lastText = whenText(s.last_time, s.last_time_text, clock);
+    const zoned = /^(.*) (UTC\S*)$/.exec(lastText);
     const last = fin(s.last_time) || s.last_time_text
-      ? `${esc(whenText(s.last_time, s.last_time_text, clock))}<br><span class="small muted">lag ${esc(durationText(s.lag_s))}</span>`
+      ? `${zoned ? `<span class="nowrap">${esc(zoned[1])}</span> <span class="nowrap">${esc(zoned[2])}</span>` : esc(lastText)}<br><span class="small muted">lag ${esc(durationText(s.lag_s))}</span>`
       : '<span class="muted">no data yet</span>';
     const usage = fin(s.trips_per_day) || fin(s.door_cycles_per_day)
-      ? `${esc(num(s.trips_per_day, 0))} trips/day` +
+      ? `<span class="nowrap">${esc(num(s.trips_per_day, 0))} trips/day</span>` +
         `<br class="wide-only"><span class="small muted"> ${esc(num(s.door_cycles_per_day, 0))} door cycles/day</span>`
       : '<span class="muted">\u2014</span>';
     const events = fin(s.open_events) && s.open_events > 0

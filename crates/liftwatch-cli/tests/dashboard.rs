@@ -452,6 +452,10 @@ fn the_dashboard_shows_which_elevator_needs_a_visit_in_chromium() {
         "the peers' drifts drawn"
     );
     assert!(dom.contains("Model versions"), "the model registry");
+    assert!(
+        !dom.contains("class=\"error\" role=\"alert\">"),
+        "no API error shown"
+    );
 
     let mut written = Vec::new();
     for (name, url, w, h) in [

@@ -458,6 +458,7 @@
   }
 
   function fleetPage() {
+    document.title = 'Fleet \u2014 liftwatch';
     $app.innerHTML =
       '<div class="fleet-head"><h1>Fleet</h1><div class="counts" id="counts"></div>' +
       '<label class="filter"><span class="small muted">Filter</span>' +

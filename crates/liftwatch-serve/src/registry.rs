@@ -107,11 +107,15 @@ pub fn parse_telemetry(body: &[u8], ndjson: bool, max_rows: usize) -> Result<Par
         first_bad_line: pre
             .first_bad_line
             .or(report.first_bad_lines.first().map(|l| l - shift)),
-        first_bad_reason: pre.first_bad_reason.take().or(report.first_bad_reason),
+        // The library's reason opens with `line N: ` counted in the text it read: dropped,
+        // the line is `first_bad_line`, counted in the body as sent.
+        first_bad_reason: pre.first_bad_reason.take().or(report
+            .first_bad_reason
+            .map(|r| strip_line_prefix(&r).to_string())),
     };
     if out.readings.is_empty() {
         let why = match (&out.first_bad_line, &out.first_bad_reason) {
-            (Some(l), Some(r)) => format!("no good row ({} bad; line {l}: {r})", out.bad),
+            (Some(l), Some(r)) => format!("no good row ({} bad; first at line {l}: {r})", out.bad),
             _ if out.unknown > 0 => {
                 format!("no good row ({} rows of unknown signals)", out.unknown)
             }
@@ -121,6 +125,14 @@ pub fn parse_telemetry(body: &[u8], ndjson: bool, max_rows: usize) -> Result<Par
     }
     out.first_bad_reason = out.first_bad_reason.map(|r| one_line(&r));
     Ok(out)
+}
+
+/// `why` without a leading `line N: `.
+fn strip_line_prefix(why: &str) -> &str {
+    why.strip_prefix("line ")
+        .and_then(|r| r.split_once(": "))
+        .filter(|(n, _)| n.bytes().all(|b| b.is_ascii_digit()))
+        .map_or(why, |(_, rest)| rest)
 }
 
 /// JSON lines `{"time":…,"signal":…,"value":…}` as raw CSV rows; a line that is not such an
@@ -405,7 +417,13 @@ pub struct FitRequest {
     pub to: Option<f64>,
     /// Why this fit.
     pub note: Option<String>,
+    /// Iterations of the hybrid stage (default the CLI's `fit` default), at most
+    /// [`MAX_FIT_EPOCHS`].
+    pub epochs: Option<usize>,
 }
+
+/// Most iterations a fit request may ask for: the largest Adam schedule the CLI documents.
+pub const MAX_FIT_EPOCHS: usize = 20_000;
 
 /// Registers a `fitting` version and fits it in a background thread from the stored raw
 /// batches of the range; the version becomes `proposed` (or `failed`, with the reason in its
@@ -531,13 +549,12 @@ fn fit_from_history(
         step_s: cfg.step_s,
         samples,
     };
-    let outcome = liftwatch::fit::fit(
-        &series,
-        elevator,
-        &liftwatch::model::train::TrainConfig::default(),
-        &mut |_| {},
-    )
-    .map_err(|e| e.to_string())?;
+    let mut train = liftwatch::model::train::TrainConfig::default();
+    if let Some(n) = req.epochs {
+        train.epochs = n;
+    }
+    let outcome =
+        liftwatch::fit::fit(&series, elevator, &train, &mut |_| {}).map_err(|e| e.to_string())?;
     let text = serde_json::to_string_pretty(&outcome.model).map_err(|e| e.to_string())?;
     // The same checks as an upload: a fit the registry would refuse is a failed fit.
     liftwatch::file::load_str(&text, Path::new("fitted model")).map_err(|e| e.to_string())?;
@@ -832,6 +849,12 @@ pub fn metrics_text(s: &Shared, depths: &HashMap<String, (i64, f64)>) -> String 
         &|id| snaps.get(id).map(|x| x.counts.samples as f64),
     );
     family(
+        "liftwatch_applied_seq",
+        "Last batch seq applied and checkpointed: outputs are stored up to it.",
+        "gauge",
+        &|id| snaps.get(id).map(|x| x.applied_seq as f64),
+    );
+    family(
         "liftwatch_queue_depth",
         "Batches stored, not yet applied and checkpointed.",
         "gauge",
@@ -860,5 +883,56 @@ fn prom(v: f64) -> String {
         "+Inf".into()
     } else {
         "-Inf".into()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_body_without_header_and_json_lines_give_the_same_readings() {
+        let with =
+            parse_telemetry(b"time,signal,value\n1,speed,0.5\n2,door,1\n", false, 10).unwrap();
+        let without = parse_telemetry(b"1,speed,0.5\n2,door,1\n", false, 10).unwrap();
+        let json = parse_telemetry(
+            b"{\"time\":1,\"signal\":\"speed\",\"value\":0.5}\n{\"time\":\"2\",\"signal\":\"door\",\"value\":1}\n",
+            true,
+            10,
+        )
+        .unwrap();
+        assert_eq!(with.readings.len(), 2);
+        assert_eq!(
+            format!("{:?}", with.readings),
+            format!("{:?}", without.readings)
+        );
+        assert_eq!(
+            format!("{:?}", with.readings),
+            format!("{:?}", json.readings)
+        );
+    }
+
+    #[test]
+    fn bad_rows_are_counted_with_the_line_of_the_body_as_sent() {
+        let p = parse_telemetry(b"1,speed,0\nx,speed,1\n2,speed,0\n", false, 10).unwrap();
+        assert_eq!((p.readings.len(), p.bad, p.first_bad_line), (2, 1, Some(2)));
+        assert!(!p.first_bad_reason.unwrap().starts_with("line"));
+        let p = parse_telemetry(
+            b"{\"time\":1}\n{\"time\":1,\"signal\":\"speed\",\"value\":0}\n",
+            true,
+            10,
+        )
+        .unwrap();
+        assert_eq!((p.readings.len(), p.bad, p.first_bad_line), (1, 1, Some(1)));
+    }
+
+    #[test]
+    fn too_many_rows_or_no_good_row_is_refused() {
+        let e = parse_telemetry(b"1,speed,0\n2,speed,0\n3,speed,0\n", false, 2).unwrap_err();
+        assert_eq!(e.0, StatusCode::PAYLOAD_TOO_LARGE);
+        let e = parse_telemetry(b"garbage\n", false, 10).unwrap_err();
+        assert_eq!(e.0, StatusCode::BAD_REQUEST);
+        let e = parse_telemetry(b"1,warp,0\n", false, 10).unwrap_err();
+        assert!(e.1.contains("unknown signals"), "{}", e.1);
     }
 }

@@ -47,6 +47,8 @@ pub struct SendReply {
     pub accepted: u64,
     /// Rows refused as bad.
     pub bad: u64,
+    /// The server's seq of the stored batch (0 when it does not say).
+    pub seq: i64,
 }
 
 /// Why a send failed.
@@ -182,6 +184,7 @@ impl Sender for HttpSender {
             200..=299 => Ok(SendReply {
                 accepted: v["accepted"].as_u64().unwrap_or(0),
                 bad: v["bad"].as_u64().unwrap_or(0),
+                seq: v["seq"].as_i64().unwrap_or(0),
             }),
             429 | 500..=599 => {
                 self.conn = None;
@@ -242,9 +245,9 @@ pub fn replay(
             crate::config::one_line(id)
         ));
     }
-    if !(opts.batch_s.is_finite() && opts.batch_s > 0.0)
-        || !(opts.speed.is_finite() && opts.speed >= 0.0)
-    {
+    let batch_ok = opts.batch_s.is_finite() && opts.batch_s > 0.0;
+    let speed_ok = opts.speed.is_finite() && opts.speed >= 0.0;
+    if !(batch_ok && speed_ok) {
         return Err("--batch-s must be positive and --speed at least 0".into());
     }
     let file = liftwatch::input::Input::open(input).map_err(|e| e.to_string())?;

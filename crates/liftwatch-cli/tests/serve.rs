@@ -1,0 +1,854 @@
+//! `liftwatch serve` and `liftwatch replay` end to end, on loopback only: the stored trip rows
+//! and events of a stream that was killed (`kill -9`) and restarted mid-way equal a batch
+//! `liftwatch monitor --rows trip` over the same raw log; bad input is refused with a 4xx and
+//! changes nothing. Every server is killed when its case ends (also on a failed assertion).
+
+mod common;
+
+use std::io::{BufRead, BufReader, Read, Write};
+use std::net::TcpStream;
+use std::path::Path;
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+use common::Dir;
+use serde_json::Value;
+
+const BIN: &str = env!("CARGO_BIN_EXE_liftwatch");
+
+/// The server binary of the load test: `LIFTWATCH_BIN` (a release build), else this profile's.
+fn server_bin() -> String {
+    std::env::var("LIFTWATCH_BIN").unwrap_or_else(|_| BIN.to_string())
+}
+
+/// The write token of the cases.
+const TOKEN: &str = "test-token-7f3a";
+
+/// Longest wait for a server to start or catch up.
+const PATIENCE: Duration = Duration::from_secs(60);
+
+fn run(args: &[&str]) {
+    let out = Command::new(BIN)
+        .args(args)
+        .output()
+        .expect("the binary runs");
+    assert!(
+        out.status.success(),
+        "liftwatch {args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+/// A running `liftwatch serve`, killed on drop.
+struct Server {
+    child: Child,
+    port: u16,
+}
+
+impl Server {
+    fn start(data: &Path, listen: &str, token: Option<&str>) -> Server {
+        Server::start_with(data, listen, token, &[])
+    }
+
+    fn start_with(data: &Path, listen: &str, token: Option<&str>, extra: &[&str]) -> Server {
+        let mut cmd = Command::new(server_bin());
+        cmd.args(["serve", "--data"])
+            .arg(data)
+            .args(["--listen", listen])
+            .args(extra)
+            .env_remove("LIFTWATCH_TOKEN")
+            .stdin(Stdio::null())
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped());
+        if let Some(t) = token {
+            cmd.env("LIFTWATCH_TOKEN", t);
+        }
+        let mut child = cmd.spawn().expect("serve starts");
+        let mut err = BufReader::new(child.stderr.take().expect("piped"));
+        let mut line = String::new();
+        err.read_line(&mut line).expect("a line on stderr");
+        let port = line
+            .split("http://127.0.0.1:")
+            .nth(1)
+            .and_then(|r| r.split_whitespace().next())
+            .and_then(|p| p.parse().ok());
+        let Some(port) = port else {
+            let _ = child.kill();
+            panic!("no listening line: {line}");
+        };
+        // Drain the logs so the server never blocks on a full pipe.
+        std::thread::spawn(move || {
+            let mut sink = Vec::new();
+            let _ = err.read_to_end(&mut sink);
+        });
+        Server { child, port }
+    }
+
+    fn url(&self) -> String {
+        format!("http://127.0.0.1:{}", self.port)
+    }
+
+    fn kill9(&mut self) {
+        let _ = self.child.kill(); // SIGKILL on unix
+        let _ = self.child.wait();
+    }
+
+    /// A request; (status, body).
+    fn req(&self, method: &str, path: &str, token: Option<&str>, body: &[u8]) -> (u16, String) {
+        request(self.port, method, path, token, body, "text/csv")
+    }
+
+    fn get_json(&self, path: &str) -> Value {
+        let (status, body) = self.req("GET", path, None, b"");
+        assert_eq!(status, 200, "GET {path}: {body}");
+        serde_json::from_str(&body).expect("JSON")
+    }
+}
+
+impl Drop for Server {
+    fn drop(&mut self) {
+        self.kill9();
+    }
+}
+
+/// One HTTP/1.1 request on its own connection (`Connection: close`).
+fn request(
+    port: u16,
+    method: &str,
+    path: &str,
+    token: Option<&str>,
+    body: &[u8],
+    ctype: &str,
+) -> (u16, String) {
+    let mut s = TcpStream::connect(("127.0.0.1", port)).expect("connects");
+    s.set_read_timeout(Some(PATIENCE)).unwrap();
+    let auth = token.map_or(String::new(), |t| format!("Authorization: Bearer {t}\r\n"));
+    let head = format!(
+        "{method} {path} HTTP/1.1\r\nHost: x\r\nConnection: close\r\nContent-Type: {ctype}\r\nContent-Length: {}\r\n{auth}\r\n",
+        body.len()
+    );
+    s.write_all(head.as_bytes()).unwrap();
+    // A server may answer (413) and close before it read a large body: that is fine.
+    let _ = s.write_all(body);
+    let mut out = Vec::new();
+    let _ = s.read_to_end(&mut out);
+    let text = String::from_utf8_lossy(&out).into_owned();
+    let status = text
+        .split_whitespace()
+        .nth(1)
+        .and_then(|c| c.parse().ok())
+        .unwrap_or(0);
+    let body = text.split_once("\r\n\r\n").map_or("", |x| x.1).to_string();
+    (status, body)
+}
+
+/// Waits until the server has applied and checkpointed every stored batch.
+fn settle(s: &Server) {
+    let t0 = Instant::now();
+    loop {
+        let h = s.get_json("/healthz");
+        if h["queue_depth"] == 0 {
+            return;
+        }
+        assert!(t0.elapsed() < PATIENCE, "the queue did not drain: {h}");
+        std::thread::sleep(Duration::from_millis(100));
+    }
+}
+
+/// The trip CSV rows as the API's objects (same conversion: numbers, empty → null).
+fn csv_rows(path: &Path) -> Vec<Value> {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    lines
+        .map(|l| {
+            let mut m = serde_json::Map::new();
+            for (k, f) in header.iter().zip(l.split(',')) {
+                let v = if f.is_empty() {
+                    Value::Null
+                } else if matches!(*k, "level" | "mode") {
+                    Value::String(f.into())
+                } else {
+                    serde_json::Number::from_f64(f.parse().unwrap())
+                        .map_or(Value::Null, Value::Number)
+                };
+                m.insert((*k).to_string(), v);
+            }
+            Value::Object(m)
+        })
+        .collect()
+}
+
+/// The API's trip row with only the CSV's columns.
+fn strip(mut row: Value, keys: &[&str]) -> Value {
+    let m = row.as_object_mut().unwrap();
+    m.retain(|k, _| !keys.contains(&k.as_str()));
+    row
+}
+
+#[test]
+fn a_stream_killed_and_restarted_gives_the_rows_of_a_batch_run() {
+    let dir = Dir::new("serve-stream");
+    let t0 = Instant::now();
+    let (healthy, worn) = (dir.path("healthy"), dir.path("worn"));
+    let s = |p: &Path| p.to_str().unwrap().to_string();
+    run(&[
+        "simulate",
+        "--out",
+        &s(&healthy),
+        "--days",
+        "1",
+        "--seed",
+        "5",
+        "-q",
+    ]);
+    let model = dir.path("model.json");
+    run(&[
+        "fit",
+        "--input",
+        &s(&healthy.join("raw.csv")),
+        "--elevator",
+        &s(&healthy.join("elevator.toml")),
+        "--out",
+        &s(&model),
+        "--epochs",
+        "150",
+        "-q",
+    ]);
+    // A stuck speed reading from 0.3 days on: a sensor advisory and its end, two events.
+    run(&[
+        "simulate",
+        "--out",
+        &s(&worn),
+        "--days",
+        "1",
+        "--seed",
+        "5",
+        "--start-hour",
+        "24",
+        "--sensor-fault",
+        "stuck-speed",
+        "--onset-days",
+        "0.3",
+        "-q",
+    ]);
+    let raw = worn.join("raw.csv");
+    let (want_rows, want_events) = (dir.path("trips.csv"), dir.path("events.jsonl"));
+    run(&[
+        "monitor",
+        "--model",
+        &s(&model),
+        "--input",
+        &s(&raw),
+        "--out",
+        &s(&want_rows),
+        "--rows",
+        "trip",
+        "--events",
+        &s(&want_events),
+        "-q",
+    ]);
+    eprintln!("prepared in {:.1} s", t0.elapsed().as_secs_f64());
+
+    let data = dir.path("data");
+    // The first server checkpoints every 7 batches, the restarted one at its defaults (2 s or
+    // 500 batches): the outputs must not depend on it.
+    let config = dir.file("serve.toml", b"checkpoint_every_batches = 7\n");
+    let mut server = Server::start_with(
+        &data,
+        "127.0.0.1:0",
+        Some(TOKEN),
+        &["--config", config.to_str().unwrap()],
+    );
+    let port = server.port;
+    let body = std::fs::read(&model).unwrap();
+    let (st, reply) = server.req(
+        "POST",
+        "/api/v1/elevators/lift-1/models",
+        Some(TOKEN),
+        &body,
+    );
+    assert_eq!(st, 201, "{reply}");
+
+    // The first 20 000 rows by hand: 10-s batches, rows shuffled within each batch (less than
+    // the 30-s reorder window), every 5th batch sent twice (at-least-once delivery). Batches
+    // of a minute below: each request is one fsynced commit, a few ms here.
+    let text = std::fs::read_to_string(&raw).unwrap();
+    let rows: Vec<&str> = text.lines().skip(1).take(20_000).collect();
+    let mut batches: Vec<Vec<&str>> = Vec::new();
+    let mut start = f64::NAN;
+    for r in rows {
+        let t: f64 = r.split(',').next().unwrap().parse().unwrap();
+        if batches.is_empty() || t >= start + 10.0 {
+            batches.push(Vec::new());
+            start = t;
+        }
+        batches.last_mut().unwrap().push(r);
+    }
+    let mut state = 0x9e37_79b9_7f4a_7c15_u64;
+    for (i, b) in batches.iter_mut().enumerate() {
+        for k in (1..b.len()).rev() {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            b.swap(k, (state % (k as u64 + 1)) as usize);
+        }
+        let body = format!("time,signal,value\n{}\n", b.join("\n"));
+        for _ in 0..(1 + usize::from(i % 5 == 0)) {
+            let (st, reply) = server.req(
+                "POST",
+                "/api/v1/elevators/lift-1/telemetry",
+                Some(TOKEN),
+                body.as_bytes(),
+            );
+            assert_eq!(st, 200, "{reply}");
+        }
+    }
+
+    // Then the whole log again with replay (the first part is dropped as late or duplicate),
+    // and the server killed with SIGKILL mid-stream and restarted on the same port.
+    let replay = Command::new(BIN)
+        .args([
+            "replay",
+            "--input",
+            &s(&raw),
+            "--id",
+            "lift-1",
+            "--to",
+            &server.url(),
+        ])
+        .args(["--speed", "0", "--batch-s", "60", "-q"])
+        .env("LIFTWATCH_TOKEN", TOKEN)
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let wait = Instant::now();
+    loop {
+        let seq = server.get_json("/api/v1/elevators/lift-1")["applied_seq"]
+            .as_i64()
+            .unwrap_or(0);
+        if seq > 1000 {
+            break;
+        }
+        assert!(wait.elapsed() < PATIENCE, "the stream did not get going");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    server.kill9();
+    let killed_at = Instant::now();
+    let server = Server::start(&data, &format!("127.0.0.1:{port}"), Some(TOKEN));
+    eprintln!("restarted after {:.2} s", killed_at.elapsed().as_secs_f64());
+    let out = replay.wait_with_output().unwrap();
+    let log = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "replay: {log}");
+    assert!(
+        log.contains("sending it again"),
+        "the kill was felt by replay: {log}"
+    );
+    settle(&server);
+
+    let got = server.get_json("/api/v1/elevators/lift-1/risk?limit=100000");
+    let got: Vec<Value> = got["rows"].as_array().unwrap().clone();
+    let want = csv_rows(&want_rows);
+    // The service holds back the last reorder window and never calls `finish`: the trips still
+    // open at the end of the log are the batch run's last ones.
+    assert!(
+        got.len() + 3 >= want.len() && got.len() <= want.len(),
+        "{} of {}",
+        got.len(),
+        want.len()
+    );
+    for (i, (g, w)) in got.iter().zip(&want).enumerate() {
+        assert_eq!(
+            &strip(g.clone(), &["start_text", "end_text"]),
+            w,
+            "trip row {i}"
+        );
+    }
+    // The same rows in the other direction: nothing the service stored is missing from the
+    // batch run either (the comparison above is of the first got.len()).
+    for w in want.iter().skip(got.len()) {
+        assert!(w["end"].as_f64() > got.last().and_then(|g| g["end"].as_f64()));
+    }
+    let events = server.get_json("/api/v1/elevators/lift-1/events");
+    let events = events["events"].as_array().unwrap();
+    let want: Vec<Value> = std::fs::read_to_string(&want_events)
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert!(!want.is_empty(), "the scenario raises events");
+    assert_eq!(events.len(), want.len());
+    for (g, w) in events.iter().zip(&want) {
+        assert_eq!(
+            &strip(g.clone(), &["elevator", "id", "seq", "time_text", "label"]),
+            w
+        );
+        assert_eq!(g["elevator"], "lift-1");
+    }
+    let summary = server.get_json("/api/v1/elevators");
+    let e = &summary["elevators"][0];
+    assert_eq!(e["id"], "lift-1");
+    assert_eq!(e["model_version"], 1);
+    assert!(e["verdict"]["level"].is_string(), "{e}");
+    let metrics = server.req("GET", "/metrics", None, b"").1;
+    assert!(
+        metrics.contains("liftwatch_rows_duplicate_total{elevator=\"lift-1\"}"),
+        "{metrics}"
+    );
+    eprintln!(
+        "{} trip rows and {} events identical to the batch run after {:.1} s",
+        got.len(),
+        events.len(),
+        t0.elapsed().as_secs_f64()
+    );
+    registry_and_shutdown(server, &body);
+    eprintln!("{:.1} s in all", t0.elapsed().as_secs_f64());
+}
+
+/// The model registry and maintenance on the streamed elevator, then a graceful shutdown.
+fn registry_and_shutdown(mut server: Server, model: &[u8]) {
+    let id = "/api/v1/elevators/lift-1";
+    // The same model again: version 2, not active, every parameter unchanged.
+    let (st, reply) = server.req(
+        "POST",
+        &format!("{id}/models?note=again"),
+        Some(TOKEN),
+        model,
+    );
+    assert_eq!(st, 201, "{reply}");
+    let models = server.get_json(&format!("{id}/models"));
+    let v2 = &models["models"][1];
+    assert_eq!(
+        (v2["version"].as_i64(), v2["active"].as_bool()),
+        (Some(2), Some(false))
+    );
+    assert_eq!(v2["changes"]["kd"].as_f64(), Some(0.0), "{v2}");
+    // Activation, then rollback: the monitor restarts from a fresh state each time.
+    for v in [2, 1] {
+        let (st, reply) = server.req(
+            "POST",
+            &format!("{id}/models/{v}/activate"),
+            Some(TOKEN),
+            b"",
+        );
+        assert_eq!(st, 200, "{reply}");
+    }
+    let (st, reply) = server.req("POST", &format!("{id}/models/9/activate"), Some(TOKEN), b"");
+    assert_eq!(st, 404, "{reply}");
+    // A visit labels the open advisory (the `normal` event that closed it is not open).
+    let visit = br#"{"time": 1e9, "work": "speed encoder replaced", "finding": "confirmed", "rebaseline": true}"#;
+    let (st, reply) = server.req("POST", &format!("{id}/maintenance"), Some(TOKEN), visit);
+    assert_eq!(st, 201, "{reply}");
+    assert!(reply.contains("\"labelled_events\":1"), "{reply}");
+    let events = server.get_json(&format!("{id}/events"));
+    assert_eq!(events["events"][0]["label"], "confirmed");
+    assert_eq!(
+        server.get_json(&format!("{id}/maintenance"))["visits"][0]["finding"],
+        "confirmed"
+    );
+    // A fit from the stored raw telemetry of the healthy first 6 hours (few iterations: the
+    // path is under test, not the fit): a `proposed` version with its changes.
+    let req = br#"{"from": 86400, "to": 108000, "epochs": 30, "note": "re-identification"}"#;
+    let (st, reply) = server.req("POST", &format!("{id}/fit"), Some(TOKEN), req);
+    assert_eq!(st, 202, "{reply}");
+    let t0 = Instant::now();
+    let v3 = loop {
+        let m = server.get_json(&format!("{id}/models"));
+        let v3 = m["models"][2].clone();
+        if v3["status"] != "fitting" {
+            break v3;
+        }
+        assert!(t0.elapsed() < PATIENCE, "the fit did not end");
+        std::thread::sleep(Duration::from_millis(200));
+    };
+    assert_eq!(v3["status"], "proposed", "{v3}");
+    assert!(v3["changes"]["kd"].is_number(), "{v3}");
+    eprintln!(
+        "fit from history in {:.1} s: Kd {:+.2} %",
+        t0.elapsed().as_secs_f64(),
+        v3["changes"]["kd"].as_f64().unwrap_or(f64::NAN)
+    );
+    // SIGTERM: a final checkpoint and a clean exit.
+    let pid = server.child.id().to_string();
+    let st = Command::new("kill").args(["-TERM", &pid]).status().unwrap();
+    assert!(st.success());
+    let t0 = Instant::now();
+    loop {
+        if let Some(code) = server.child.try_wait().unwrap() {
+            assert!(code.success(), "{code:?}");
+            break;
+        }
+        assert!(t0.elapsed() < PATIENCE, "no exit after SIGTERM");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
+#[test]
+fn bad_input_is_refused_with_a_4xx_and_changes_nothing() {
+    let dir = Dir::new("serve-bad");
+    let server = Server::start(&dir.path("data"), "127.0.0.1:0", Some(TOKEN));
+    let good = b"time,signal,value\n1,speed,0\n2,speed,0\n";
+    let post = |path: &str, token: Option<&str>, body: &[u8]| server.req("POST", path, token, body);
+    let cases: Vec<(&str, (u16, String))> = vec![
+        (
+            "no token",
+            post("/api/v1/elevators/a/telemetry", None, good),
+        ),
+        (
+            "wrong token",
+            post("/api/v1/elevators/a/telemetry", Some("nope"), good),
+        ),
+        (
+            "garbage",
+            post(
+                "/api/v1/elevators/a/telemetry",
+                Some(TOKEN),
+                b"\x00\xffgarbage,,\nmore\n",
+            ),
+        ),
+        (
+            "bad rows only",
+            post(
+                "/api/v1/elevators/a/telemetry",
+                Some(TOKEN),
+                b"time,signal,value\nx,speed,1\n",
+            ),
+        ),
+        (
+            "aligned layout",
+            post(
+                "/api/v1/elevators/a/telemetry",
+                Some(TOKEN),
+                b"time,speed,direction,voltage,load,door,floor\n1,0,0,0,0,0,1\n",
+            ),
+        ),
+        (
+            "huge body",
+            post(
+                "/api/v1/elevators/a/telemetry",
+                Some(TOKEN),
+                &vec![b'1'; 9 << 20],
+            ),
+        ),
+        (
+            "bad id",
+            post("/api/v1/elevators/a.b/telemetry", Some(TOKEN), good),
+        ),
+        (
+            "model of another version",
+            post(
+                "/api/v1/elevators/a/models",
+                Some(TOKEN),
+                br#"{"format_version": 99}"#,
+            ),
+        ),
+        (
+            "garbage model",
+            post("/api/v1/elevators/a/models", Some(TOKEN), b"{not json"),
+        ),
+        (
+            "unknown model version",
+            post("/api/v1/elevators/a/models/3/activate", Some(TOKEN), b""),
+        ),
+        (
+            "bad visit",
+            post(
+                "/api/v1/elevators/a/maintenance",
+                Some(TOKEN),
+                br#"{"time": 1}"#,
+            ),
+        ),
+        (
+            "unknown elevator",
+            server.req("GET", "/api/v1/elevators/nobody", None, b""),
+        ),
+        (
+            "unknown elevator's rows",
+            server.req("GET", "/api/v1/elevators/nobody/risk", None, b""),
+        ),
+        (
+            "bad query",
+            server.req("GET", "/api/v1/events?level=panic", None, b""),
+        ),
+    ];
+    for (what, (status, body)) in &cases {
+        assert!((400..500).contains(status), "{what}: {status} {body}");
+        let v: Value =
+            serde_json::from_str(body).unwrap_or_else(|_| panic!("{what}: not JSON: {body}"));
+        let msg = v["error"]
+            .as_str()
+            .unwrap_or_else(|| panic!("{what}: {body}"));
+        assert!(!msg.contains('\n') && !msg.is_empty(), "{what}: {msg}");
+        eprintln!("{what}: {status} {msg}");
+    }
+    // Nothing changed: no elevator, no batch.
+    assert_eq!(
+        server.get_json("/api/v1/elevators")["elevators"],
+        serde_json::json!([])
+    );
+    assert_eq!(server.get_json("/healthz")["queue_depth"], 0);
+    // A request with some bad rows keeps the good ones and says which line was bad.
+    let (st, body) = post(
+        "/api/v1/elevators/a/telemetry",
+        Some(TOKEN),
+        b"time,signal,value\n1,speed,0\nbad,speed,1\n2,speed,0\n",
+    );
+    assert_eq!(st, 200, "{body}");
+    let v: Value = serde_json::from_str(&body).unwrap();
+    assert_eq!(
+        (
+            v["accepted"].as_u64(),
+            v["bad"].as_u64(),
+            v["first_bad_line"].as_u64()
+        ),
+        (Some(2), Some(1), Some(3))
+    );
+    // JSON lines are the same rows.
+    let (st, body) = request(
+        server.port,
+        "POST",
+        "/api/v1/elevators/a/telemetry",
+        Some(TOKEN),
+        b"{\"time\":3,\"signal\":\"speed\",\"value\":0}\n{\"oops\":1}\n",
+        "application/x-ndjson",
+    );
+    assert_eq!(st, 200, "{body}");
+    assert!(body.contains("\"accepted\":1"), "{body}");
+    let openapi = server.get_json("/api/v1/openapi.json");
+    assert!(openapi["paths"]["/api/v1/elevators/{id}/telemetry"].is_object());
+
+    // Without a token the service is read-only, and says so.
+    let ro = Server::start(&dir.path("data-ro"), "127.0.0.1:0", None);
+    let (st, body) = ro.req("POST", "/api/v1/elevators/a/telemetry", Some("x"), good);
+    assert_eq!(st, 403, "{body}");
+    assert!(body.contains("without a token"), "{body}");
+}
+
+/// A number from the environment, or `default`.
+fn env_num(name: &str, default: f64) -> f64 {
+    std::env::var(name)
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(default)
+}
+
+/// `liftwatch_NAME{elevator="ID"} VALUE` lines of a metrics text, per elevator.
+fn metric(text: &str, name: &str) -> std::collections::HashMap<String, f64> {
+    let prefix = format!("{name}{{elevator=\"");
+    text.lines()
+        .filter_map(|l| {
+            let rest = l.strip_prefix(&prefix)?;
+            let (id, v) = rest.split_once("\"} ")?;
+            Some((id.to_string(), v.parse().ok()?))
+        })
+        .collect()
+}
+
+/// The load test of issue 10: N elevators (`LIFTWATCH_LOAD_ELEVATORS`, 1000) at 1 Hz for
+/// `LIFTWATCH_LOAD_SECONDS` (600) of wall time, each sending 10 s of a simulated raw log every
+/// 10 s, on loopback, with a model each. Reports the ingest-to-visible latency (from a batch's
+/// 200 to the checkpoint that stores its outputs, polled every 250 ms), the server's memory per
+/// elevator, and checks that every elevator's rows were all applied. Run with a release server:
+/// `LIFTWATCH_BIN=target/release/liftwatch cargo test -p liftwatch-cli --test serve -- --ignored --nocapture load`.
+#[test]
+#[ignore = "10 minutes of wall time"]
+fn load_many_elevators_at_one_hertz() {
+    use liftwatch_serve::replay::{sender_for, SendError};
+    let n = env_num("LIFTWATCH_LOAD_ELEVATORS", 1000.0) as usize;
+    let seconds = env_num("LIFTWATCH_LOAD_SECONDS", 600.0);
+    /// Seconds of log per batch, and of wall time between two batches of one elevator.
+    const PERIOD_S: f64 = 10.0;
+    /// Sender threads, each with its own keep-alive connection.
+    const THREADS: usize = 16;
+    let dir = Dir::new("serve-load");
+    let s = |p: &Path| p.to_str().unwrap().to_string();
+    let (healthy, model) = (dir.path("healthy"), dir.path("model.json"));
+    run(&[
+        "simulate",
+        "--out",
+        &s(&healthy),
+        "--days",
+        "1",
+        "--seed",
+        "5",
+        "-q",
+    ]);
+    run(&[
+        "fit",
+        "--input",
+        &s(&healthy.join("raw.csv")),
+        "--elevator",
+        &s(&healthy.join("elevator.toml")),
+        "--out",
+        &s(&model),
+        "--epochs",
+        "150",
+        "-q",
+    ]);
+    let text = std::fs::read_to_string(healthy.join("raw.csv")).unwrap();
+    let mut batches: Vec<String> = Vec::new();
+    let mut start = f64::NAN;
+    for r in text.lines().skip(1) {
+        let t: f64 = r.split(',').next().unwrap().parse().unwrap();
+        if batches.is_empty() || t >= start + PERIOD_S {
+            batches.push("time,signal,value\n".into());
+            start = t;
+        }
+        let b = batches.last_mut().unwrap();
+        b.push_str(r);
+        b.push('\n');
+    }
+    let per_elevator = ((seconds / PERIOD_S) as usize).min(batches.len());
+    let batches = std::sync::Arc::new(batches[..per_elevator].to_vec());
+    let rows_each: usize = batches.iter().map(|b| b.lines().count() - 1).sum();
+
+    let server = Server::start_with(
+        &dir.path("data"),
+        "127.0.0.1:0",
+        Some(TOKEN),
+        &[
+            "--config",
+            dir.file("load.toml", b"max_elevators = 5000\n")
+                .to_str()
+                .unwrap(),
+        ],
+    );
+    let rss = |pid: u32| -> f64 {
+        let st = std::fs::read_to_string(format!("/proc/{pid}/status")).unwrap_or_default();
+        st.lines()
+            .find_map(|l| l.strip_prefix("VmRSS:"))
+            .and_then(|v| v.trim().trim_end_matches("kB").trim().parse::<f64>().ok())
+            .unwrap_or(f64::NAN)
+    };
+    let rss_before = rss(server.child.id());
+    let body = std::fs::read(&model).unwrap();
+    for i in 0..n {
+        let (st, reply) = server.req(
+            "POST",
+            &format!("/api/v1/elevators/e{i}/models"),
+            Some(TOKEN),
+            &body,
+        );
+        assert_eq!(st, 201, "{reply}");
+    }
+    eprintln!("{n} elevators, {per_elevator} batches of {PERIOD_S} s each, {rows_each} rows each");
+
+    let url = server.url();
+    let t0 = Instant::now();
+    let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    // The probe: applied seq per elevator, every 250 ms, with the time it was seen.
+    let probe = {
+        let (stop, port) = (stop.clone(), server.port);
+        std::thread::spawn(move || {
+            let mut seen: Vec<(f64, std::collections::HashMap<String, f64>)> = Vec::new();
+            while !stop.load(std::sync::atomic::Ordering::Relaxed) {
+                let (_, text) = request(port, "GET", "/metrics", None, b"", "text/plain");
+                seen.push((
+                    t0.elapsed().as_secs_f64(),
+                    metric(&text, "liftwatch_applied_seq"),
+                ));
+                std::thread::sleep(Duration::from_millis(250));
+            }
+            seen
+        })
+    };
+    let senders: Vec<_> = (0..THREADS)
+        .map(|k| {
+            let (batches, url) = (batches.clone(), url.clone());
+            std::thread::spawn(move || {
+                let mut sender = sender_for(&url, Some(TOKEN.to_string())).unwrap();
+                // (elevator, seq, time of the 200)
+                let mut done: Vec<(usize, i64, f64)> = Vec::new();
+                let mine: Vec<usize> = (k..n).step_by(THREADS).collect();
+                let mut plan: Vec<(f64, usize, usize)> = Vec::new();
+                for &i in &mine {
+                    for b in 0..batches.len() {
+                        let due = b as f64 * PERIOD_S + i as f64 * PERIOD_S / n as f64;
+                        plan.push((due, i, b));
+                    }
+                }
+                plan.sort_by(|a, b| a.0.total_cmp(&b.0));
+                let mut late = 0.0f64;
+                for (due, i, b) in plan {
+                    let now = t0.elapsed().as_secs_f64();
+                    if due > now {
+                        std::thread::sleep(Duration::from_secs_f64(due - now));
+                    }
+                    late = late.max(t0.elapsed().as_secs_f64() - due);
+                    let id = format!("e{i}");
+                    let reply = loop {
+                        match sender.send(&id, batches[b].as_bytes()) {
+                            Ok(r) => break r,
+                            Err(SendError::Retry(e)) => {
+                                eprintln!("retry {id}: {e}");
+                                std::thread::sleep(Duration::from_millis(100));
+                            }
+                            Err(SendError::Fatal(e)) => panic!("{id}: {e}"),
+                        }
+                    };
+                    assert_eq!(reply.bad, 0);
+                    done.push((i, reply.seq, t0.elapsed().as_secs_f64()));
+                }
+                (done, late)
+            })
+        })
+        .collect();
+    let mut done = Vec::new();
+    let mut worst_late = 0.0f64;
+    for h in senders {
+        let (d, late) = h.join().unwrap();
+        done.extend(d);
+        worst_late = worst_late.max(late);
+    }
+    let sent_s = t0.elapsed().as_secs_f64();
+    settle(&server);
+    std::thread::sleep(Duration::from_millis(500));
+    stop.store(true, std::sync::atomic::Ordering::Relaxed);
+    let seen = probe.join().unwrap();
+    let rss_after = rss(server.child.id());
+
+    // Latency: from a batch's 200 to the first probe that saw its seq applied.
+    let mut lat: Vec<f64> = done
+        .iter()
+        .filter_map(|(i, seq, t_ok)| {
+            let id = format!("e{i}");
+            seen.iter()
+                .find(|(t, m)| *t >= *t_ok && m.get(&id).is_some_and(|&a| a >= *seq as f64))
+                .map(|(t, _)| t - t_ok)
+        })
+        .collect();
+    assert_eq!(lat.len(), done.len(), "every batch was seen applied");
+    lat.sort_by(f64::total_cmp);
+    let q = |p: f64| lat[((lat.len() - 1) as f64 * p).round() as usize];
+    let metrics = server.req("GET", "/metrics", None, b"").1;
+    let ingested = metric(&metrics, "liftwatch_rows_ingested_total");
+    let samples = metric(&metrics, "liftwatch_samples_total");
+    let late = metric(&metrics, "liftwatch_rows_late_total");
+    for i in 0..n {
+        let id = format!("e{i}");
+        assert_eq!(
+            ingested.get(&id).copied(),
+            Some(rows_each as f64),
+            "{id}: rows stored"
+        );
+        assert_eq!(
+            samples.get(&id),
+            samples.get("e0"),
+            "{id}: the same samples as e0"
+        );
+        assert_eq!(late.get(&id).copied(), Some(0.0), "{id}: late rows");
+    }
+    eprintln!(
+        "{} batches ({:.0}/s) in {sent_s:.0} s, senders at most {worst_late:.2} s behind; \
+         ingest-to-visible latency median {:.2} s, p99 {:.2} s, max {:.2} s; \
+         server memory {:.0} MB ({:.1} KB per elevator); {} samples per elevator, none lost",
+        done.len(),
+        done.len() as f64 / sent_s,
+        q(0.5),
+        q(0.99),
+        lat[lat.len() - 1],
+        rss_after / 1024.0,
+        (rss_after - rss_before) / n as f64,
+        samples.get("e0").copied().unwrap_or(0.0),
+    );
+}

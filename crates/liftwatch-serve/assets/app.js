@@ -656,6 +656,16 @@
         parts.push(`<text x="${x.toFixed(1)}" y="${ly.toFixed(1)}" text-anchor="${left ? 'start' : 'end'}" font-size="12" fill="${h.color}" font-weight="600" paint-order="stroke" stroke="#fff" stroke-width="3">${esc(h.label)}</text>`);
       }
     }
+    // vertical marks: a dashed line (the change's start) or a flag at the top (an event)
+    for (const vl of o.vlines || []) {
+      if (!fin(vl.x) || vl.x < x0 || vl.x > x1) continue;
+      const x = sx(vl.x).toFixed(1);
+      if (vl.flag) {
+        parts.push(`<path d="M${x} ${m.t + 9} l-5 -9 h10 z" fill="${vl.color}" stroke="#fff" stroke-width="1"><title>${esc(vl.title || '')}</title></path>`);
+      } else {
+        parts.push(`<line x1="${x}" x2="${x}" y1="${m.t}" y2="${m.t + ph}" stroke="${vl.color}" stroke-width="1.5" stroke-dasharray="${vl.dash || ''}"><title>${esc(vl.title || '')}</title></line>`);
+      }
+    }
     // series
     parts.push(`<g clip-path="url(#${o.id}-clip)">`);
     const gap = o.gapS || Infinity;
@@ -767,7 +777,7 @@
     return [lo, hi];
   }
 
-  function riskChart(rows, v, width, clock, id) {
+  function riskChart(rows, v, width, clock, id, events) {
     const xs = rows.map(rowTime).filter(fin);
     if (!v && !xs.length) return '<p class="muted">Not monitored: without an active model no risk is computed.</p>';
     if (xs.length < 2) return `<p class="muted">${xs.length ? 'One trip' : 'No trip'} monitored yet: the chart starts at the second.</p>`;
@@ -790,16 +800,26 @@
     const hlines = [];
     if (fin(adv)) hlines.push({ y: adv, label: `advisory ${sig(adv)}`, color: '#8a5000', dash: '8 4' });
     if (fin(alm)) hlines.push({ y: alm, label: `alarm ${sig(alm)}`, color: '#b3261e', dash: '3 3' });
+    const LEVEL_COLOR = { alarm: '#b3261e', advisory: '#8a5000', normal: '#1e6b34' };
+    const vlines = (events || []).map((e) => ({
+      x: e.time, flag: true, color: LEVEL_COLOR[e.level] || '#4b5563',
+      title: `${e.level} (${SUBSYSTEM[e.mode] || e.mode}) ${instantText(e.time, clock)}`,
+    }));
+    if (v && fin(v.since) && v.level !== 'normal') {
+      vlines.push({ x: v.since, color: '#374151', dash: '2 4', title: `the change began ${instantText(v.since, clock)}` });
+    }
     const svg = lineChart({
       id, width, height: 280, x0, x1, clock, yLog, y0, y1: top, yTitle: yLog ? 'risk (log scale)' : 'risk',
-      series, hlines, bands: levelBands(rows), gapS: 2 * DAY,
+      series, hlines, vlines, bands: levelBands(rows), gapS: 2 * DAY,
       aria: 'risk over time: combined R, per-mode risks, advisory and alarm levels',
     });
     const legend = '<ul class="legend">' +
       series.slice().reverse().map((s) => legendItem(s.label, s.color, s.dash, s.marker, s.width)).join('') +
       legendItem('advisory level', '#8a5000', '8 4') + legendItem('alarm level', '#b3261e', '3 3') +
       '<li><svg width="18" height="12" aria-hidden="true"><rect width="18" height="12" fill="#fdefd0"/></svg>advisory</li>' +
-      '<li><svg width="18" height="12" aria-hidden="true"><rect width="18" height="12" fill="#fbd9d5"/></svg>alarm</li></ul>';
+      '<li><svg width="18" height="12" aria-hidden="true"><rect width="18" height="12" fill="#fbd9d5"/></svg>alarm</li>' +
+      '<li><svg width="14" height="12" aria-hidden="true"><path d="M7 11 l-6 -10 h12 z" fill="#8a5000"/></svg>event (level change)</li>' +
+      legendItem('the change began', '#374151', '2 4') + '</ul>';
     return svg + legend;
   }
 
@@ -1153,7 +1173,7 @@
     $app.innerHTML = `<p class="crumbs"><a href="#/">\u2190 Fleet</a></p><div id="ev-head"><h1>${esc(id)}</h1></div>` +
       '<div id="ev-verdict"></div>' +
       '<section class="card"><h2>Risk over time</h2><div id="ev-risk"><p class="muted">Loading\u2026</p></div>' +
-      `<p class="chart-note">One point per trip, the last ${RISK_WINDOW_DAYS} days at most.` + ' Combined R solid; per-mode risks dashed with markers (they can coincide); shaded spans: the level at each trip (the sequential test can raise it before R reaches its line).</p></section>' +
+      `<p class="chart-note">One point per trip, the last ${RISK_WINDOW_DAYS} days at most.` + ' Combined R solid; per-mode risks dashed with markers (they can coincide); shaded spans: the level at each trip (the sequential test can raise it before R reaches its line); flags: the events; dotted: where the change began.</p></section>' +
       '<section class="card"><h2>Drift in physical units</h2><div id="ev-drift"></div>' +
       '<p class="chart-note">Per trip, as the monitor re-identifies it; dashed lines: the drift that, held, brings the mode\u2019s risk to its level; dash-dot: the physical limit.</p></section>' +
       '<section class="card"><h2>Peers</h2><div id="ev-peers"></div></section>' +
@@ -1167,13 +1187,14 @@
     let rows = [];
     let summary = null;
     let fleetList = null;
+    let eventList = [];
     let first = true;
 
     function drawCharts() {
       if (!summary) return;
       const clock = clockOf(summary);
       const w = el('risk').clientWidth || 900;
-      put(el('risk'), riskChart(rows, summary.verdict, w, clock, 'risk'));
+      put(el('risk'), riskChart(rows, summary.verdict, w, clock, 'risk', eventList));
       put(el('drift'), driftCharts(rows, summary.verdict, el('drift').clientWidth || 900, clock, 'drift'));
       put(el('peers'), peersSection(summary, fleetList, el('peers').clientWidth || 900));
       const usage = el('usage');
@@ -1236,7 +1257,7 @@
       if (risk.status === 'fulfilled') setError('risk', null);
       else setError('risk', risk.reason.message);
 
-      if (events.status === 'fulfilled') { setError('events', null); put(el('events'), eventsTable(events.value.events || [], clock, !!s.verdict)); } else { setError('events', events.reason.message); if (first) put(el('events'), '<p class="muted">not available</p>'); }
+      if (events.status === 'fulfilled') { setError('events', null); eventList = events.value.events || []; put(el('events'), eventsTable(eventList, clock, !!s.verdict)); } else { setError('events', events.reason.message); if (first) put(el('events'), '<p class="muted">not available</p>'); }
       put(el('model'), s.model
         ? `<p>Version <b>v${esc(s.model.version)}</b>${s.model.source ? ` from ${esc(s.model.source)}` : ''}${s.model.created != null ? `, created ${esc(createdText(s.model, clock))}` : ''}.` +
           `${s.model.fingerprint ? ` <span class="small muted">fingerprint <code>${esc(String(s.model.fingerprint).slice(0, 16))}</code></span>` : ''}</p>${paramTable(s.model.parameters)}`

@@ -631,9 +631,12 @@
       parts.push(`<line class="axis" x1="${x.toFixed(1)}" x2="${x.toFixed(1)}" y1="${m.t + ph}" y2="${m.t + ph + 4}"/>`);
       const lab = tt.label(t);
       const w = lab.length * 7;
-      if (x - w / 2 > lastRight + 4 && x + w / 2 < W) {
-        parts.push(`<text x="${x.toFixed(1)}" y="${m.t + ph + 17}" text-anchor="middle" font-size="12">${esc(lab)}</text>`);
-        lastRight = x + w / 2;
+      // centred under its tick; at the right edge it ends there instead of being dropped
+      const atEdge = x + w / 2 > W - 2;
+      const left = atEdge ? W - 2 - w : x - w / 2;
+      if (left > lastRight + 4 && x <= W) {
+        parts.push(`<text x="${(atEdge ? W - 2 : x).toFixed(1)}" y="${m.t + ph + 17}" text-anchor="${atEdge ? 'end' : 'middle'}" font-size="12">${esc(lab)}</text>`);
+        lastRight = left + w;
       }
     }
     parts.push(`<text x="${m.l + pw / 2}" y="${H - 4}" text-anchor="middle" font-size="12" fill="#5b6470">${esc(tt.title)}</text>`);

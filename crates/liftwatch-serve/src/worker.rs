@@ -491,6 +491,16 @@ impl Worker {
             );
             return;
         }
+        if let Some(client) = self.shared.events_mqtt.get() {
+            for id in &dirty {
+                let lines: Vec<&str> = self.runtimes[id]
+                    .events
+                    .iter()
+                    .map(|e| e.3.as_str())
+                    .collect();
+                crate::mqtt::publish_events(client, id, &lines);
+            }
+        }
         for id in &dirty {
             let rt = self.runtimes.get_mut(id).expect("listed above");
             rt.trips.clear();

@@ -486,28 +486,40 @@ async fn telemetry(
             v.starts_with("application/x-ndjson") || v.starts_with("application/jsonl")
         });
     let s2 = s.clone();
-    let id2 = id.clone();
-    let out = blocking(move || {
-        let parsed = registry::parse_telemetry(&body, ndjson, s2.cfg.max_rows_per_request)?;
-        let conn = s2
+    let receipt = blocking(move || ingest(&s2, &id, &body, ndjson))
+        .await
+        .map_err(|e| refused(&s, e))?;
+    Ok(Json(receipt).into_response())
+}
+
+/// Takes one batch of raw telemetry for elevator `id`, whatever carried it (HTTP, MQTT):
+/// parses it with the library's row parser (bad rows counted and skipped), stores the good rows
+/// as one batch, committed, and wakes the worker. Returns the receipt the HTTP answer and the
+/// logs carry. Blocking: the store is written.
+///
+/// # Errors
+/// A 400 for a body with no usable row or an id out of form, 409 when the instance is full,
+/// 500 for the database.
+pub fn ingest(s: &Shared, id: &str, body: &[u8], ndjson: bool) -> Result<Value, ApiError> {
+    check_id(id)?;
+    let parsed = registry::parse_telemetry(body, ndjson, s.cfg.max_rows_per_request)?;
+    let (seq, existed) = {
+        let conn = s
             .writer
             .lock()
             .unwrap_or_else(std::sync::PoisonError::into_inner);
-        let exists = store::elevator_exists(&conn, &id2).map_err(db)?;
-        if !exists && store::elevator_count(&conn).map_err(db)? >= s2.cfg.max_elevators {
-            return Err(full(&s2));
+        let exists = store::elevator_exists(&conn, id).map_err(db)?;
+        if !exists && store::elevator_count(&conn).map_err(db)? >= s.cfg.max_elevators {
+            return Err(full(s));
         }
         let tx = conn.unchecked_transaction().map_err(db)?;
         if !exists {
-            store::put_elevator(&tx, &id2, "{}").map_err(db)?;
+            store::put_elevator(&tx, id, "{}").map_err(db)?;
         }
-        let seq = store::append_batch(&tx, &id2, &parsed.readings).map_err(db)?;
+        let seq = store::append_batch(&tx, id, &parsed.readings).map_err(db)?;
         tx.commit().map_err(db)?;
-        Ok((parsed, seq, exists))
-    })
-    .await
-    .map_err(|e| refused(&s, e))?;
-    let (parsed, seq, existed) = out;
+        (seq, exists)
+    };
     if !existed {
         log(
             "info",
@@ -519,13 +531,13 @@ async fn telemetry(
             .ingest
             .lock()
             .unwrap_or_else(std::sync::PoisonError::into_inner);
-        let e = m.entry(id.clone()).or_default();
+        let e = m.entry(id.to_string()).or_default();
         e.requests += 1;
         e.rows += parsed.readings.len() as u64;
         e.bad += parsed.bad;
     }
-    s.poke(&id);
-    Ok(Json(json!({
+    s.poke(id);
+    Ok(json!({
         "accepted": parsed.readings.len(),
         "bad": parsed.bad,
         "missing": parsed.missing,
@@ -534,7 +546,6 @@ async fn telemetry(
         "first_bad_reason": parsed.first_bad_reason,
         "seq": seq,
     }))
-    .into_response())
 }
 
 /// `from`, `to`, `limit` and `level` of the list endpoints.

@@ -11,6 +11,8 @@
 //! max_rows_per_request = 200000
 //! max_elevators = 2000
 //! read_token = false             # true: reads need the token too
+//! mqtt = "mqtt://liftwatch:PASSWORD@127.0.0.1:1883"  # optional: telemetry in, events out
+//! mqtt_client_id = "liftwatch-serve"  # the broker keeps this session's subscription
 //!
 //! [[elevators]]
 //! id = "B7-east"
@@ -52,6 +54,10 @@ pub const DEFAULT_MAX_ROWS_PER_REQUEST: usize = 200_000;
 /// Default most elevators one instance holds: a few large buildings; each costs a worker state
 /// of tens of KiB in memory.
 pub const DEFAULT_MAX_ELEVATORS: usize = 2_000;
+
+/// Default MQTT client id of the service: the broker keeps the persistent session (and the
+/// messages not yet acknowledged) under it; two services on one broker need two ids.
+pub const DEFAULT_MQTT_CLIENT_ID: &str = "liftwatch-serve";
 
 /// Default listening address: this machine only.
 pub const DEFAULT_LISTEN: &str = "127.0.0.1:8080";
@@ -107,6 +113,11 @@ pub struct Config {
     pub max_elevators: usize,
     /// Reads need the token too.
     pub read_token: bool,
+    /// MQTT broker (`mqtt://[user:password@]host[:port]`): telemetry taken from
+    /// `liftwatch/+/telemetry`, events published on `liftwatch/{id}/events`; none by default.
+    pub mqtt: Option<String>,
+    /// The service's MQTT client id.
+    pub mqtt_client_id: String,
     /// Elevators known from the start.
     pub elevators: Vec<ElevatorInfo>,
 }
@@ -124,6 +135,8 @@ impl Default for Config {
             max_rows_per_request: DEFAULT_MAX_ROWS_PER_REQUEST,
             max_elevators: DEFAULT_MAX_ELEVATORS,
             read_token: false,
+            mqtt: None,
+            mqtt_client_id: DEFAULT_MQTT_CLIENT_ID.into(),
             elevators: Vec::new(),
         }
     }
@@ -191,6 +204,12 @@ impl Config {
         }
         if self.max_body_bytes < 1024 || self.max_rows_per_request == 0 || self.max_elevators == 0 {
             return Err("max_body_bytes (≥ 1024), max_rows_per_request and max_elevators (≥ 1) bound the input".into());
+        }
+        if let Some(url) = &self.mqtt {
+            crate::mqtt::Broker::parse(url).map_err(|e| format!("mqtt {e}"))?;
+        }
+        if self.mqtt_client_id.is_empty() || self.mqtt_client_id.len() > 64 {
+            return Err("mqtt_client_id must be 1 to 64 characters".into());
         }
         for e in &self.elevators {
             let id = e.id.as_deref().unwrap_or("");

@@ -12,11 +12,13 @@
 //!
 //! The modules: [`config`] the settings, [`store`] the database, [`worker`] the streaming
 //! application and checkpoints, [`registry`] the models and maintenance visits, [`api`] the
-//! HTTP routes, [`replay`] the client that sends a raw log to a server. The library
+//! HTTP routes, [`mqtt`] telemetry in and events out through a broker, [`replay`] the client
+//! that sends a raw log to a server. The library
 //! (`liftwatch`) knows nothing of this crate.
 
 pub mod api;
 pub mod config;
+pub mod mqtt;
 pub mod registry;
 pub mod replay;
 pub mod store;
@@ -67,6 +69,8 @@ pub struct Shared {
     pub worker_alive: AtomicBool,
     /// To the worker.
     pub worker: Mutex<Sender<Msg>>,
+    /// The MQTT client that publishes events, once connected (`mqtt` in the config).
+    pub events_mqtt: std::sync::OnceLock<rumqttc::Client>,
 }
 
 impl Shared {
@@ -179,7 +183,21 @@ pub fn serve(opts: ServeOptions) -> Result<(), String> {
         refused: AtomicU64::new(0),
         worker_alive: AtomicBool::new(true),
         worker: Mutex::new(tx.clone()),
+        events_mqtt: std::sync::OnceLock::new(),
     });
+    if let Some(url) = &opts.cfg.mqtt {
+        let broker = mqtt::Broker::parse(url).map_err(|e| format!("--mqtt {e}"))?;
+        let client = mqtt::start(shared.clone(), &broker, &opts.cfg.mqtt_client_id)?;
+        let _ = shared.events_mqtt.set(client);
+        log(
+            "info",
+            &format!(
+                "mqtt: taking telemetry from {} on {}",
+                broker.display(),
+                mqtt::TELEMETRY_FILTER
+            ),
+        );
+    }
     let worker_shared = shared.clone();
     let worker = std::thread::Builder::new()
         .name("liftwatch-worker".into())

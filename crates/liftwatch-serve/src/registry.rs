@@ -728,7 +728,7 @@ pub fn event_list(
                     "label": r.get::<_, Option<String>>(4)?,
                 })
                 .to_string();
-                // The stored line is one JSON object written by `Event::to_json_line`.
+                // The stored line is one JSON object written by `Monitor::event_line`.
                 let body = line
                     .trim()
                     .strip_prefix('{')

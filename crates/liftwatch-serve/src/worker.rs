@@ -164,7 +164,7 @@ impl SampleSink for Feed<'_> {
                     self.seq,
                     e.time,
                     e.level.as_str().to_string(),
-                    e.to_json_line(),
+                    m.event_line(e),
                 ));
             }
         }
@@ -500,6 +500,16 @@ impl Worker {
                 &format!("checkpoint failed, retried at the next one: {e}"),
             );
             return;
+        }
+        if let Some(client) = self.shared.events_mqtt.get() {
+            for id in &dirty {
+                let lines: Vec<&str> = self.runtimes[id]
+                    .events
+                    .iter()
+                    .map(|e| e.3.as_str())
+                    .collect();
+                crate::mqtt::publish_events(client, id, &lines);
+            }
         }
         for id in &dirty {
             let rt = self.runtimes.get_mut(id).expect("listed above");

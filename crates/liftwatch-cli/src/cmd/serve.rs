@@ -26,6 +26,10 @@ pub struct Args {
     /// Config file (TOML): listen, reorder window, checkpoints, limits, elevators.
     #[arg(long)]
     pub config: Option<PathBuf>,
+    /// MQTT broker to take telemetry from (`liftwatch/{id}/telemetry`) and publish events to
+    /// (`liftwatch/{id}/events`): mqtt://[user:password@]host[:port] (over the config's).
+    #[arg(long)]
+    pub mqtt: Option<String>,
     /// Days raw telemetry batches are kept for fitting from history (over the config's).
     #[arg(long = "keep-raw-days")]
     pub keep_raw_days: Option<f64>,
@@ -50,6 +54,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     if let Some(l) = args.listen {
         cfg.listen = l;
+    }
+    if let Some(m) = args.mqtt {
+        cfg.mqtt = Some(m);
     }
     if let Some(d) = args.keep_raw_days {
         cfg.keep_raw_days = d;

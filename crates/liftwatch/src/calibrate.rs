@@ -676,6 +676,42 @@ mod tests {
     }
 
     #[test]
+    fn a_healthy_level_off_a_short_trainings_own_is_not_a_change() {
+        // The three days of a short training sit at Kd −1.5 %, 0 and +1.5 % of their mean
+        // (traffic mix, the ambient), beside the daily ±3 % thermal swing. The days after it
+        // sit at +0.8 %, a level those three days make plausible for a new day and below half
+        // the larger CUSUM size (one trip's Kd error is about 4 % here): thirty of them must
+        // not pile up into a change in the smallest size, as they do when θ0 is taken as exact.
+        const DAY_KD: [f64; 3] = [-0.015, 0.0, 0.015];
+        const LATER_KD: f64 = 0.008;
+        let m = test_model();
+        let training = synthetic_trips(&m, 41, 3.0, 0.0, &|t, x| {
+            DAY_KD[((t / 86_400.0) as usize).min(2)] * x[MOTOR]
+        });
+        let settings = CalibrationSettings {
+            years: 5.0,
+            ..CalibrationSettings::default()
+        };
+        let cfg = calibrate(&training, &settings).expect("three days suffice").risk;
+        let seq = cfg.sequential.as_ref().expect("separable signatures");
+        // The days' spread shows in θ0's error: about 1.5 %/√3 beyond the pooled noise.
+        let se = seq.reference_se[MOTOR];
+        assert!((0.5 * 0.015 / 3f64.sqrt()..0.02).contains(&se), "θ0's error {se}");
+        let later = synthetic_trips(&m, 43, 30.0, 10.0 * 86_400.0, &|_, x| LATER_KD * x[MOTOR]);
+        let ratio = |cfg: &RiskConfig| {
+            run(cfg, &later)
+                .iter()
+                .map(|a| a.decision.ratio)
+                .fold(0.0, f64::max)
+        };
+        assert!(ratio(&cfg) < 1.0, "a new day's level crossed: G/h = {}", ratio(&cfg));
+        // Taking θ0 as exact, the same month is a "change": the test can fail.
+        let mut exact = cfg.clone();
+        exact.sequential.as_mut().expect("set").reference_se = [0.0; N_MODES];
+        assert!(ratio(&exact) >= 1.0, "G/h = {} with θ0 exact", ratio(&exact));
+    }
+
+    #[test]
     fn one_burst_of_odd_trips_is_not_a_change() {
         // Five consecutive trips far off (20 σ), then healthy again: the clip and the sizes
         // keep the decision below its threshold.

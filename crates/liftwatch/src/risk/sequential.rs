@@ -9,6 +9,9 @@
 //!   healthy var(score_m) = s²_m·info_m                s²_m = Σ score² / Σ info on the fit
 //! one CUSUM per mode m and size δ = ν_j·se_m         se_m = s_m/√(mean info_m): one trip's SE
 //!   u = clip(score_m/(s_m·√info_m), ±3),  ν = δ·√info_m/s_m
+//!   smallest size: score_m − z·se0_m·info_m in place of score_m
+//!                                                   se0_m: θ0's error as a new day's level,
+//!                                                   z = REFERENCE_Z
 //!   G ← max(0, G + ν·u − ν²/2)                     log-likelihood ratio of a drift δ along x_m
 //!   a CUSUM at 0 forgets its window; above 0 it sums the window's score (3) and x·xᵀ (6)
 //! crossing: G ≥ h_mj                                  h calibrated (crate::calibrate)
@@ -82,7 +85,32 @@ pub struct SequentialConfig {
     /// what their noise explains (the daily thermal swing of Kd shows here); it is added to
     /// the standard error of every window drift, which no number of trips averages away.
     pub wander: [f64; N_MODES],
+    /// Standard error of θ0 as the healthy level of a day the training did not see, per mode
+    /// (coefficient units): the noise of the pooled estimate plus the spread between whole
+    /// days over their number. A CUSUM counts only what a trip shows beyond
+    /// [`REFERENCE_Z`] of it, so an elevator whose healthy level sits a little off the
+    /// training's (three days cannot pin it) does not pile up a false change over weeks.
+    /// 0 in models fitted before it was kept, which then behave as before.
+    #[serde(default)]
+    pub reference_se: [f64; N_MODES],
 }
+
+/// Standard errors of the reference θ0 a trip's score must exceed before a CUSUM counts it:
+/// two, a one-sided 98 % bound on how far the healthy level of a new day may sit from the
+/// training's.
+pub const REFERENCE_Z: f64 = 2.0;
+
+/// The size whose CUSUM counts only what lies beyond θ0's error: the smallest, whose windows
+/// run for days and weeks, long enough to pile up a small error of the reference into a
+/// "change". The larger size decides on tens to a few hundred trips, within a day, where the
+/// healthy wander of the training sets its threshold (the bootstrap) and the reference's error
+/// is a small part of the noise; an allowance there lowered its bootstrap threshold by more
+/// than it took from a new day's excursions (3-day trainings on the evaluation: four false
+/// advisories of the size 1/2 on the 40-floor car).
+pub const REFERENCE_SIZE: usize = 0;
+
+/// Seconds of a day: the reference's spread is measured between calendar days of training.
+const DAY_S: f64 = 86_400.0;
 
 /// Trips per block when the healthy wander is measured: a few busy hours, short against the
 /// daily thermal cycle, long enough for a block's noise to be small.
@@ -108,6 +136,7 @@ impl SequentialConfig {
                 check("risk.sequential.h", self.h[m][j], 1e-3, 1e9)?;
             }
             check("risk.sequential.wander", self.wander[m], 0.0, 1e3)?;
+            check("risk.sequential.reference_se", self.reference_se[m], 0.0, 1e3)?;
         }
         Ok(())
     }
@@ -137,6 +166,7 @@ impl SequentialConfig {
             info: [0.0; N_MODES],
             h: [[h; N_SIZES]; N_MODES],
             wander: [0.0; N_MODES],
+            reference_se: [0.0; N_MODES],
         };
         let (mut ss, mut si) = ([0.0; N_MODES], [0.0; N_MODES]);
         for t in trips {
@@ -155,7 +185,52 @@ impl SequentialConfig {
             cfg.info[m] = si[m] / n;
         }
         cfg.wander = cfg.block_wander(trips);
+        cfg.reference_se = cfg.day_spread(trips);
         Some(cfg)
+    }
+
+    /// [`SequentialConfig::reference_se`], as the error of a random-effects mean over the
+    /// training's calendar days (DerSimonian & Laird, 1986): day d gives y_d = Σscore/ΣI with
+    /// noise v_d = s²/I_d; the spread between days beyond that noise is
+    /// τ² = max(0, (Q − (n − 1))/(Σw − Σw²/Σw)), Q = Σ w_d (y_d − ȳ_w)², w_d = 1/v_d, and
+    /// θ0's error as a new day's level is 1/√Σ 1/(v_d + τ²). Days weigh by their trips, so a
+    /// trip past the last midnight is not a day. A training within one day cannot show a
+    /// day's level: τ is then the block wander.
+    fn day_spread(&self, trips: &[TripEvidence]) -> [f64; N_MODES] {
+        let mut out = [0.0; N_MODES];
+        let day = |t: &TripEvidence| (t.start / DAY_S).floor();
+        for m in 0..N_MODES {
+            let mut days: Vec<(f64, f64)> = Vec::new();
+            let mut current = None;
+            let (mut s, mut i) = (0.0, 0.0);
+            for t in trips {
+                let d = day(t);
+                if current.is_some_and(|c| c != d) && i > 0.0 {
+                    days.push((s / i, self.s2[m] / i));
+                    (s, i) = (0.0, 0.0);
+                }
+                current = Some(d);
+                let (score, info) = self.score(t);
+                s += score[m];
+                i += info[m];
+            }
+            if i > 0.0 {
+                days.push((s / i, self.s2[m] / i));
+            }
+            let tau2 = if days.len() >= 2 {
+                let w: Vec<f64> = days.iter().map(|d| 1.0 / d.1).collect();
+                let sw: f64 = w.iter().sum();
+                let mean = days.iter().zip(&w).map(|(d, w)| w * d.0).sum::<f64>() / sw;
+                let q: f64 = days.iter().zip(&w).map(|(d, w)| w * (d.0 - mean).powi(2)).sum();
+                let c = sw - w.iter().map(|w| w * w).sum::<f64>() / sw;
+                ((q - (days.len() - 1) as f64) / c).max(0.0)
+            } else {
+                self.wander[m] * self.wander[m]
+            };
+            let precision: f64 = days.iter().map(|d| 1.0 / (d.1 + tau2)).sum();
+            out[m] = (1.0 / precision).sqrt();
+        }
+        out
     }
 
     /// sd of the single-signature coefficient between blocks of [`WANDER_BLOCK_TRIPS`]
@@ -255,12 +330,17 @@ impl Sequential {
         for m in 0..N_MODES {
             // In standardised units: u = score/(s·√info), ν = δ·√info/s per this trip.
             let root = (cfg.s2[m] * info[m]).sqrt();
-            let u = if root > 0.0 {
-                (score[m] / root).clamp(-CLIP, CLIP)
-            } else {
-                0.0
+            let standardised = |score: f64| {
+                if root > 0.0 {
+                    (score / root).clamp(-CLIP, CLIP)
+                } else {
+                    0.0
+                }
             };
+            let u = standardised(score[m]);
+            let u_beyond = standardised(score[m] - REFERENCE_Z * cfg.reference_se[m] * info[m]);
             for j in 0..N_SIZES {
+                let u = if j == REFERENCE_SIZE { u_beyond } else { u };
                 let nu = cfg.delta(m, j) * (info[m] / cfg.s2[m]).sqrt();
                 let c = &mut self.bank[m][j];
                 c.g += nu * u - 0.5 * nu * nu;

@@ -657,14 +657,24 @@ fn a_reader_that_goes_away_ends_the_run_quietly_with_141() {
     // run stops with 128 + SIGPIPE as a shell reports for coreutils, saying nothing.
     let f = fixture();
     let mut child = Command::new(env!("CARGO_BIN_EXE_liftwatch"))
-        .args(["monitor", "--model", s(&f.model), "--input", s(&f.fault), "--out", "-"])
+        .args([
+            "monitor",
+            "--model",
+            s(&f.model),
+            "--input",
+            s(&f.fault),
+            "--out",
+            "-",
+        ])
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
         .expect("the binary runs");
     let mut stdout = child.stdout.take().expect("stdout is piped");
     let mut first = [0u8; 64];
-    stdout.read_exact(&mut first).expect("the header comes first");
+    stdout
+        .read_exact(&mut first)
+        .expect("the header comes first");
     drop(stdout);
     let mut stderr = String::new();
     child
@@ -710,5 +720,8 @@ fn every_machine_event_carries_the_forecast_of_its_mode() {
             assert_eq!(first, "reached", "{line}");
         }
     }
-    assert!(machine > 0, "the motor fault raises a machine event: {text}");
+    assert!(
+        machine > 0,
+        "the motor fault raises a machine event: {text}"
+    );
 }

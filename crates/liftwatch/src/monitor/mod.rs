@@ -43,6 +43,7 @@ use crate::features::{FeatureRow, FeatureTracker, Trip};
 use crate::fit::FittedModel;
 use crate::forecast::DriftHistory;
 use crate::mode::MACHINE_MODES;
+use crate::operation::{OperationEvent, OperationTracker};
 use crate::output::write_atomic;
 use crate::residual::{PredictionCache, Residuals};
 use crate::risk::{friction_reference, RiskTracker, TripAccumulator};
@@ -122,6 +123,9 @@ pub struct MonitorRow {
     /// Set at the row where a trip is reported: the trip and its mean residuals (the rows
     /// of [`TripRowWriter`]).
     pub trip_end: Option<TripSummary>,
+    /// An outage or door event of [`crate::operation`] handed out with this row (at most
+    /// one per row; the rest wait for the next rows). Not written to the CSV.
+    pub operation: Option<OperationEvent>,
 }
 
 /// Runs the streaming monitor of `method` over a whole series with no saved state: one row
@@ -224,6 +228,10 @@ pub struct MonitorState {
     /// written before it was kept (bounded: [`crate::forecast::MAX_POINTS`] blocks).
     #[serde(default)]
     pub drifts: DriftHistory,
+    /// Door cycles, outages, usage per day and the door check ([`crate::operation`]); states
+    /// written before it was kept start with nothing seen.
+    #[serde(default)]
+    pub operation: OperationTracker,
 }
 
 impl MonitorState {
@@ -320,6 +328,13 @@ impl MonitorState {
     }
 }
 
+/// The model's aligned step, or alignment's default for a model without one (s).
+fn model_step(model: &FittedModel) -> f64 {
+    model
+        .step_s
+        .unwrap_or_else(|| crate::align::AlignConfig::default().step_s)
+}
+
 /// Default of [`MonitorState::last_time`] for states written before it was recorded.
 fn nan() -> f64 {
     f64::NAN
@@ -334,6 +349,9 @@ pub struct Monitor {
     friction: (f64, f64),
     cache: PredictionCache,
     st: MonitorState,
+    /// The aligned step (s): the model's, or alignment's default for a model written before
+    /// the step was recorded (the CLI's step guard aligns at the same).
+    step_s: f64,
 }
 
 impl Monitor {
@@ -359,12 +377,14 @@ impl Monitor {
             events: 0,
             episode_since: f64::NAN,
             drifts: DriftHistory::default(),
+            operation: OperationTracker::new(),
         };
         Monitor {
             model: model.clone(),
             friction: friction_reference(&model.hybrid),
             cache: PredictionCache::default(),
             st,
+            step_s: model_step(model),
         }
     }
 
@@ -391,6 +411,7 @@ impl Monitor {
             friction: friction_reference(&model.hybrid),
             cache: PredictionCache::default(),
             st: state,
+            step_s: model_step(model),
         })
     }
 
@@ -432,9 +453,26 @@ impl Monitor {
             &self.model.sensor,
             self.model.features.moving_threshold_mps,
         );
+        self.st.operation.push(
+            x,
+            self.step_s,
+            self.model.features.moving_threshold_mps,
+            self.model.operation.as_ref(),
+        );
         let row = self.st.features.push(x)?;
         let trip = self.st.features.take_trip();
-        Some(self.step(&row, trip))
+        if let Some(t) = &trip {
+            self.st.operation.trip(t, self.model.operation.as_ref());
+        }
+        let mut row = self.step(&row, trip);
+        row.operation = self.st.operation.take_event();
+        Some(row)
+    }
+
+    /// The operation event as one JSON line (DATA.md §4, [`OperationEvent::to_json_line`]):
+    /// an outage's start or end, or the door advisory raised or released.
+    pub fn operation_event_line(&self, e: &OperationEvent) -> String {
+        e.to_json_line()
     }
 
     /// End of data for good: the rows still held. Without it (a saved state instead), the
@@ -449,7 +487,12 @@ impl Monitor {
             } else {
                 None
             };
-            out.push(self.step(row, trip));
+            if let Some(t) = &trip {
+                self.st.operation.trip(t, self.model.operation.as_ref());
+            }
+            let mut r = self.step(row, trip);
+            r.operation = self.st.operation.take_event();
+            out.push(r);
         }
         // The tracker drops a trip still running; so does the evidence.
         self.st.trip = TripAccumulator::default();
@@ -562,6 +605,7 @@ impl Monitor {
             brake_drag_n: self.friction.0 * a.drift[BRAKE],
             trip: x.trip,
             trip_end: None,
+            operation: None,
         }
     }
 
@@ -589,6 +633,7 @@ impl Monitor {
             brake_drag_n: f64::NAN,
             trip: x.trip,
             trip_end: None,
+            operation: None,
         }
     }
 }
@@ -741,6 +786,7 @@ mod tests {
             brake_drag_n: f64::NAN,
             trip: Some(3),
             trip_end: None,
+            operation: None,
         };
         assert_eq!(
             csv(&[r]).lines().nth(1).unwrap(),

@@ -15,9 +15,10 @@
 //! door health  per scored cycle (d ≤ DOOR_CYCLE_MAX_S), two scores of healthy mean 0, sd 1:
 //!                z_d = clip((clip((d − med)/σ̂, ±3) − m_d)/s_d, ±3)          σ̂ = 1.4826·MAD
 //!                z_r = clip((clip((x − p0)/√(p0(1 − p0)), ±3) − m_r)/s_r, ±3)   x = 1: reopening
+//!              w = the healthy day-to-day wander of the daily mean z beyond its noise
 //!              one CUSUM per score and size ν (risk::sequential's sizes and increment):
-//!                G ← min(2h, max(0, G + ν·z − ν²/2));   advisory at G ≥ h, released when
-//!                every G < h/2
+//!                G ← min(2h, max(0, G + ν·(z − 2w) − ν²/2));   advisory at G ≥ h,
+//!                released when every G < h/2
 //! ```
 //!
 //! Learnt by [`OperationReference::learn`] on the training history (`fit`): the trip rate per
@@ -89,6 +90,15 @@ pub const DOOR_MIN_CYCLES: usize = 200;
 /// every reopening of the field a change.
 pub const REOPEN_RATE_FLOOR: f64 = 0.01;
 
+/// A door score's shift within this many healthy day-to-day standard deviations (the
+/// wander w of the daily mean score beyond its noise) is no change: each cycle's score enters
+/// the CUSUMs as z − 2·w. Busier days have fuller cars and longer cycles; without the
+/// allowance a simulated healthy month raised two door advisories, each on a busy day.
+pub const DOOR_WANDER_K: f64 = 2.0;
+
+/// The wander w is at least this (score units): a week shows only its own days.
+pub const DOOR_WANDER_FLOOR: f64 = 0.1;
+
 /// Years of bootstrapped healthy door cycles per false advisory a year, as for the machine.
 pub const DOOR_BOOTSTRAP_YEARS: f64 = 10.0;
 
@@ -126,6 +136,9 @@ pub struct DoorReference {
     pub score_mean: [f64; 2],
     /// Healthy standard deviation s of the clipped scores (duration, reopening).
     pub score_sd: [f64; 2],
+    /// w: healthy day-to-day wander of the daily mean score beyond its noise, per score, at
+    /// least [`DOOR_WANDER_FLOOR`].
+    pub wander: [f64; 2],
     /// h per score and size (log-likelihood ratio units).
     pub h: [[f64; N_SIZES]; 2],
     /// Healthy door cycles scored.
@@ -410,11 +423,17 @@ fn raw_scores(r: &DoorReference, c: &DoorCycle) -> [f64; 2] {
     ]
 }
 
-/// The standardised scores z of a cycle, clipped to ±[`CLIP`] once more: a reopening
-/// standardised by a small p0's spread would otherwise count as ten cycles' evidence.
-fn scores(r: &DoorReference, c: &DoorCycle) -> [f64; 2] {
+/// The standardised scores z of a cycle, clipped to ±[`CLIP`] once more (a reopening
+/// standardised by a small p0's spread would otherwise count as ten cycles' evidence).
+fn standardised(r: &DoorReference, c: &DoorCycle) -> [f64; 2] {
     let u = raw_scores(r, c);
     [0, 1].map(|k| ((u[k] - r.score_mean[k]) / r.score_sd[k]).clamp(-CLIP, CLIP))
+}
+
+/// What a cycle adds to the CUSUMs: z less the day-to-day allowance [`DOOR_WANDER_K`]·w.
+fn scores(r: &DoorReference, c: &DoorCycle) -> [f64; 2] {
+    let z = standardised(r, c);
+    [0, 1].map(|k| z[k] - DOOR_WANDER_K * r.wander[k])
 }
 
 fn hour_bin(t: f64) -> usize {
@@ -874,6 +893,7 @@ impl OperationReference {
                 0.99,
             )?;
             for k in 0..2 {
+                check("operation.door.wander", d.wander[k], 0.0, CLIP)?;
                 check("operation.door.score_mean", d.score_mean[k], -CLIP, CLIP)?;
                 check("operation.door.score_sd", d.score_sd[k], 1e-6, 10.0)?;
                 for j in 0..N_SIZES {
@@ -910,6 +930,7 @@ impl DoorReference {
             reopen_rate: reopen.max(REOPEN_RATE_FLOOR),
             score_mean: [0.0; 2],
             score_sd: [1.0; 2],
+            wander: [DOOR_WANDER_FLOOR; 2],
             h: [[1.0; N_SIZES]; 2],
             cycles: scored.len() as u64,
             cycles_per_day: scored.len() as f64 / span_days,
@@ -932,6 +953,34 @@ impl DoorReference {
             let m = p * hi + (1.0 - p) * lo;
             r.score_mean[1] = m;
             r.score_sd[1] = (p * (hi - m).powi(2) + (1.0 - p) * (lo - m).powi(2)).sqrt();
+        }
+        // Wander: the spread of the daily mean z beyond what each day's count explains.
+        let mut by_day: Vec<(i64, [f64; 2], f64)> = Vec::new();
+        for c in &scored {
+            let z = standardised(&r, c);
+            let d = day_of(c.start);
+            match by_day.last_mut() {
+                Some((day, sum, n)) if *day == d => {
+                    sum[0] += z[0];
+                    sum[1] += z[1];
+                    *n += 1.0;
+                }
+                _ => by_day.push((d, z, 1.0)),
+            }
+        }
+        let full: Vec<&(i64, [f64; 2], f64)> = by_day
+            .iter()
+            .filter(|d| d.2 >= 0.25 * r.cycles_per_day)
+            .collect();
+        if full.len() >= 3 {
+            let nd = full.len() as f64;
+            for k in 0..2 {
+                let means: Vec<f64> = full.iter().map(|d| d.1[k] / d.2).collect();
+                let m = means.iter().sum::<f64>() / nd;
+                let var = means.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / (nd - 1.0);
+                let noise = full.iter().map(|d| 1.0 / d.2).sum::<f64>() / nd;
+                r.wander[k] = (var - noise).max(0.0).sqrt().max(DOOR_WANDER_FLOOR);
+            }
         }
         // Thresholds: the highest G over bootstrapped healthy years (day-long blocks of the
         // training's cycles), never below Lorden's bound for four statistics.

@@ -43,7 +43,7 @@ use crate::features::{FeatureRow, FeatureTracker, Trip};
 use crate::fit::FittedModel;
 use crate::forecast::DriftHistory;
 use crate::mode::MACHINE_MODES;
-use crate::operation::{OperationEvent, OperationTracker};
+use crate::operation::{DayUsage, OperationEvent, OperationTracker};
 use crate::output::write_atomic;
 use crate::residual::{PredictionCache, Residuals};
 use crate::risk::{friction_reference, RiskTracker, TripAccumulator};
@@ -156,6 +156,11 @@ pub struct Analysis {
     pub events: Vec<Event>,
     /// The paper's method's state at the end of the series: what the verdict reads.
     pub state: MonitorState,
+    /// Usage and availability of every day of the series (the state keeps only the last
+    /// [`crate::operation::USAGE_DAYS`]).
+    pub usage: Vec<DayUsage>,
+    /// The outage and door events, in order.
+    pub operation_events: Vec<OperationEvent>,
 }
 
 impl Analysis {
@@ -163,16 +168,38 @@ impl Analysis {
     pub fn run(model: &FittedModel, series: &crate::sample::AlignedSeries) -> Self {
         let features = crate::features::extract(series, &model.features);
         let mut m = Monitor::new(model, Method::Pinn);
-        let mut pinn: Vec<MonitorRow> = series.samples.iter().filter_map(|s| m.push(s)).collect();
+        let mut usage: Vec<DayUsage> = Vec::new();
+        let mut pinn: Vec<MonitorRow> = Vec::with_capacity(series.len());
+        for s in &series.samples {
+            pinn.extend(m.push(s));
+            // A day is copied when the next begins; outage seconds dated back into a day
+            // already copied are taken again from the state below.
+            let days = &m.state_ref().operation.days;
+            if let (Some(&last), Some(&prev)) = (days.back(), days.iter().rev().nth(1)) {
+                if usage.last().is_none_or(|u| u.day < prev.day) && last.day > prev.day {
+                    usage.push(prev);
+                }
+            }
+        }
         pinn.extend(m.finish());
+        let state = m.state();
+        for d in &state.operation.days {
+            match usage.iter_mut().find(|u| u.day == d.day) {
+                Some(u) => *u = *d,
+                None => usage.push(*d),
+            }
+        }
         let threshold = run(model, &series.samples, Method::Threshold);
         let events = pinn.iter().filter_map(|r| r.event).collect();
+        let operation_events = pinn.iter().filter_map(|r| r.operation).collect();
         Analysis {
             features,
             pinn,
             threshold,
             events,
-            state: m.state(),
+            state,
+            usage,
+            operation_events,
         }
     }
 }

@@ -103,8 +103,10 @@ pub const DOOR_WANDER_FLOOR: f64 = 0.1;
 pub const DOOR_BOOTSTRAP_YEARS: f64 = 10.0;
 
 /// For this long (s) after an outage ends the car serves the calls that waited through it:
-/// fuller cars, longer door cycles. Those cycles are counted, not scored (on a simulated 4 h
-/// outage they raised the door advisory 30 min after service resumed).
+/// fuller cars, longer door cycles, a winding warming from cold, and a machine a technician
+/// may just have adjusted. Those door cycles are counted, not scored, and those trips are not
+/// machine evidence (on a simulated 4 h outage the door advisory came 30 min, and a machine
+/// `friction` advisory 70 min, after service resumed).
 pub const OUTAGE_BACKLOG_S: f64 = 3600.0;
 
 /// Days of usage kept in the monitor state (trips, door cycles, availability per day).
@@ -284,18 +286,29 @@ impl OperationEvent {
                 serde_json::Value::Null
             }
         };
-        let v = match self {
-            OperationEvent::OutageStart(o) | OperationEvent::OutageEnd(o) => serde_json::json!({
-                "time": num(o.start),
-                "kind": "outage",
-                "state": if matches!(self, OperationEvent::OutageStart(_)) { "start" } else { "end" },
-                "end": num(o.end),
-                "duration_s": num(o.end - o.start),
-                "detected_at": num(o.detected_at),
-                "outage": o.kind,
-                "reason": o.reason(),
-                "expected_trips": num(o.expected_trips),
-            }),
+        let fields: Vec<(&str, serde_json::Value)> = match self {
+            OperationEvent::OutageStart(o) | OperationEvent::OutageEnd(o) => vec![
+                ("time", num(o.start)),
+                ("kind", "outage".into()),
+                (
+                    "state",
+                    if matches!(self, OperationEvent::OutageStart(_)) {
+                        "start"
+                    } else {
+                        "end"
+                    }
+                    .into(),
+                ),
+                ("end", num(o.end)),
+                ("duration_s", num(o.end - o.start)),
+                ("detected_at", num(o.detected_at)),
+                (
+                    "outage",
+                    serde_json::to_value(o.kind).expect("a name always serialises"),
+                ),
+                ("reason", o.reason().into()),
+                ("expected_trips", num(o.expected_trips)),
+            ],
             OperationEvent::Door {
                 time,
                 raised,
@@ -305,21 +318,24 @@ impl OperationEvent {
                 recent_reopen_rate,
                 reference_median_s,
                 reference_reopen_rate,
-            } => serde_json::json!({
-                "time": num(*time),
-                "kind": "level",
-                "subsystem": "door",
-                "level": if *raised { "advisory" } else { "normal" },
-                "mode": FaultMode::Door,
-                "cusum_ratio": num(*ratio),
-                "cusum_signature": DOOR_SCORES[*lead],
-                "door_cycle_median_s": num(*recent_median_s),
-                "door_reopen_rate": num(*recent_reopen_rate),
-                "reference_cycle_median_s": num(*reference_median_s),
-                "reference_reopen_rate": num(*reference_reopen_rate),
-            }),
+            } => vec![
+                ("time", num(*time)),
+                ("kind", "level".into()),
+                ("subsystem", "door".into()),
+                ("level", if *raised { "advisory" } else { "normal" }.into()),
+                ("mode", FaultMode::Door.as_str().into()),
+                ("cusum_ratio", num(*ratio)),
+                ("cusum_signature", DOOR_SCORES[*lead].into()),
+                ("door_cycle_median_s", num(*recent_median_s)),
+                ("door_reopen_rate", num(*recent_reopen_rate)),
+                ("reference_cycle_median_s", num(*reference_median_s)),
+                ("reference_reopen_rate", num(*reference_reopen_rate)),
+            ],
         };
-        v.to_string()
+        // Written in this order (a serde_json map would sort the keys): `time` first, as in
+        // every event line.
+        let body: Vec<String> = fields.iter().map(|(k, v)| format!("\"{k}\":{v}")).collect();
+        format!("{{{}}}", body.join(","))
     }
 }
 
@@ -512,7 +528,7 @@ impl OperationTracker {
 
     fn day_mut(&mut self, t: f64) -> &mut DayUsage {
         let d = day_of(t);
-        if self.days.back().is_none_or(|u| u.day < d) {
+        if self.days.back().map_or(true, |u| u.day < d) {
             self.days.push_back(DayUsage {
                 day: d,
                 ..DayUsage::default()
@@ -694,6 +710,15 @@ impl OperationTracker {
                 self.between_since = t.end_time;
             }
         }
+    }
+
+    /// True while an outage is under way or its backlog is served: from its start to
+    /// [`OUTAGE_BACKLOG_S`] after its end, `t` (s) in it.
+    pub fn serving_backlog(&self, t: f64) -> bool {
+        self.open.is_some()
+            || self
+                .last_outage
+                .is_some_and(|o| t - o.end < OUTAGE_BACKLOG_S)
     }
 
     /// The next event, at most one per call (the monitor takes one per sample).
@@ -919,7 +944,7 @@ impl DoorReference {
             .copied()
             .filter(|c| c.duration_s <= DOOR_CYCLE_MAX_S)
             .collect();
-        if scored.len() < DOOR_MIN_CYCLES || !(span_days > 0.0) {
+        if scored.len() < DOOR_MIN_CYCLES || span_days.is_nan() || span_days <= 0.0 {
             return None;
         }
         let d: Vec<f64> = scored.iter().map(|c| c.duration_s).collect();

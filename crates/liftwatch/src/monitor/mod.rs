@@ -176,7 +176,7 @@ impl Analysis {
             // already copied are taken again from the state below.
             let days = &m.state_ref().operation.days;
             if let (Some(&last), Some(&prev)) = (days.back(), days.iter().rev().nth(1)) {
-                if usage.last().is_none_or(|u| u.day < prev.day) && last.day > prev.day {
+                if usage.last().map_or(true, |u| u.day < prev.day) && last.day > prev.day {
                     usage.push(prev);
                 }
             }
@@ -259,6 +259,10 @@ pub struct MonitorState {
     /// written before it was kept start with nothing seen.
     #[serde(default)]
     pub operation: OperationTracker,
+    /// Trips not taken as machine evidence because the car was serving the backlog of an
+    /// outage ([`crate::operation::OUTAGE_BACKLOG_S`]); 0 in states written before.
+    #[serde(default)]
+    pub backlog_trips: u64,
 }
 
 impl MonitorState {
@@ -405,6 +409,7 @@ impl Monitor {
             episode_since: f64::NAN,
             drifts: DriftHistory::default(),
             operation: OperationTracker::new(),
+            backlog_trips: 0,
         };
         Monitor {
             model: model.clone(),
@@ -583,7 +588,11 @@ impl Monitor {
         let Some(ev) = st.trip.finish(plausible) else {
             return;
         };
-        if plausible {
+        if st.operation.serving_backlog(t.start_time) {
+            // Just back from an outage (or the rescue run of a stuck car): not machine
+            // evidence, as crate::operation::OUTAGE_BACKLOG_S says why.
+            st.backlog_trips = st.backlog_trips.saturating_add(1);
+        } else if plausible {
             st.risk.push(&self.model.risk, &ev);
             st.drifts.push(&self.model.risk, &ev, ev.end);
         } else {

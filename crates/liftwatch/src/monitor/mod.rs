@@ -748,6 +748,32 @@ mod tests {
     }
 
     #[test]
+    fn a_state_and_a_model_from_before_availability_still_work() {
+        // A model without `operation` writes no such key, so its identity (and the states
+        // saved with it) are those it had before; a state without `operation` or
+        // `backlog_trips` resumes with nothing seen.
+        let model = test_model();
+        assert!(model.operation.is_none());
+        let json = serde_json::to_value(&model).unwrap();
+        assert!(json.get("operation").is_none());
+        let xs = samples(0.05, 6, None);
+        let mut m = Monitor::new(&model, Method::Pinn);
+        for x in &xs[..1000] {
+            let _ = m.push(x);
+        }
+        let mut state = serde_json::to_value(m.state()).unwrap();
+        let obj = state.as_object_mut().unwrap();
+        assert!(obj.remove("operation").is_some() && obj.remove("backlog_trips").is_some());
+        let old: MonitorState = serde_json::from_value(state).unwrap();
+        assert_eq!(old.operation.days.len(), 0);
+        let mut b = Monitor::resume(&model, old).unwrap();
+        for x in &xs[1000..] {
+            let _ = b.push(x);
+        }
+        assert!(b.state_ref().operation.days.back().unwrap().observed_s > 0.0);
+    }
+
+    #[test]
     fn a_state_from_another_model_is_refused() {
         let model = test_model();
         let mut other = test_model();

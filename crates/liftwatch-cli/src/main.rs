@@ -46,10 +46,12 @@ const EXIT_BROKEN_PIPE: u8 = 141;
 /// True when the error is a write to a closed pipe, however deeply wrapped.
 fn is_broken_pipe(err: &anyhow::Error) -> bool {
     err.chain().any(|cause| {
-        let io = cause.downcast_ref::<std::io::Error>().or(match cause.downcast_ref() {
-            Some(liftwatch::Error::Io { err, .. }) => Some(err),
-            _ => None,
-        });
+        let io = cause
+            .downcast_ref::<std::io::Error>()
+            .or(match cause.downcast_ref() {
+                Some(liftwatch::Error::Io { err, .. }) => Some(err),
+                _ => None,
+            });
         io.is_some_and(|e| e.kind() == std::io::ErrorKind::BrokenPipe)
     })
 }

@@ -444,6 +444,8 @@ fn enumerated_flags_are_checked_choices() {
         ("--scenario", "wear", "healthy, motor, brake, friction"),
         ("--ramp", "sudden", "step, linear, exponential"),
         ("--sensor-fault", "stuck", "none, load-drift, stuck-speed"),
+        ("--doors", "squeaky", "ideal, field, slowing"),
+        ("--outage", "flood", "none, out-of-service, stuck"),
     ] {
         let out = run(&["simulate", "--out", s(&dir.path("x")), flag, bad]);
         assert_eq!(out.code, 2, "{flag} {bad}: {}", out.stderr);
@@ -657,14 +659,24 @@ fn a_reader_that_goes_away_ends_the_run_quietly_with_141() {
     // run stops with 128 + SIGPIPE as a shell reports for coreutils, saying nothing.
     let f = fixture();
     let mut child = Command::new(env!("CARGO_BIN_EXE_liftwatch"))
-        .args(["monitor", "--model", s(&f.model), "--input", s(&f.fault), "--out", "-"])
+        .args([
+            "monitor",
+            "--model",
+            s(&f.model),
+            "--input",
+            s(&f.fault),
+            "--out",
+            "-",
+        ])
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
         .expect("the binary runs");
     let mut stdout = child.stdout.take().expect("stdout is piped");
     let mut first = [0u8; 64];
-    stdout.read_exact(&mut first).expect("the header comes first");
+    stdout
+        .read_exact(&mut first)
+        .expect("the header comes first");
     drop(stdout);
     let mut stderr = String::new();
     child
@@ -710,5 +722,50 @@ fn every_machine_event_carries_the_forecast_of_its_mode() {
             assert_eq!(first, "reached", "{line}");
         }
     }
-    assert!(machine > 0, "the motor fault raises a machine event: {text}");
+    assert!(
+        machine > 0,
+        "the motor fault raises a machine event: {text}"
+    );
+}
+
+#[test]
+fn simulate_writes_its_outage_and_doors_into_the_truth() {
+    let dir = Dir::new("outage-truth");
+    let out = dir.path("sim");
+    ok(&[
+        "simulate",
+        "--out",
+        s(&out),
+        "--days",
+        "1",
+        "--seed",
+        "3",
+        "--doors",
+        "field",
+        "--outage",
+        "stuck",
+        "--onset-days",
+        "0.42",
+        "--quiet",
+    ]);
+    let truth: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("truth.json")).unwrap()).unwrap();
+    assert_eq!(truth["doors"]["kind"], "field");
+    let o = &truth["outages"][0];
+    assert_eq!(o["kind"], "stuck_between_floors");
+    let (start, end) = (o["start_s"].as_f64().unwrap(), o["end_s"].as_f64().unwrap());
+    assert!(
+        start >= 0.42 * 86_400.0 && (end - start - 1800.0).abs() < 1e-6,
+        "{o}"
+    );
+    assert!(o["position"]
+        .as_str()
+        .unwrap()
+        .starts_with("between landings"));
+    // The default run keeps its old truth: no doors, no outages.
+    let plain = dir.path("plain");
+    ok(&["simulate", "--out", s(&plain), "--days", "0.2", "--quiet"]);
+    let truth: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(plain.join("truth.json")).unwrap()).unwrap();
+    assert!(truth.get("doors").is_none() && truth.get("outages").is_none());
 }

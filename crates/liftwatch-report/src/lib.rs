@@ -31,6 +31,7 @@
 //! | `fit`           | U vs U_pred, F_U vs F_pred and both residuals over a busy 6 min near the end |
 //! | `comparison`    | fixed-threshold baseline alarm state (activations counted) over the liftwatch risk |
 //! | `usage`         | trips, door cycles and time moving by hour of day; histogram of trip λ |
+//! | `availability`  | availability per day with the outages; door cycle duration and reopenings per day against the healthy reference, the door advisory |
 //! | `preprocessing` | (appendix) aligned speed and signed v, load reading and held λ, door, floor over the busiest 20 min |
 //! | `acceleration`  | (appendix) a_v, a_L and the fused a over three trips of that excerpt |
 //! | `training`      | (appendix) loss (log scale), RMS r_U and RMS r_F against the iteration, stage 2 marked |
@@ -102,6 +103,10 @@ pub struct ReportInputs<'a> {
     pub events: &'a [Event],
     /// The paper's method's state at the end of `series`: the verdict the report opens with.
     pub state: &'a MonitorState,
+    /// Usage and availability per day of `series` ([`Analysis::usage`]).
+    pub usage: &'a [liftwatch::operation::DayUsage],
+    /// Outage and door events over `series`.
+    pub operation_events: &'a [liftwatch::operation::OperationEvent],
     /// Name of the input shown in the report (a file name).
     pub source: &'a str,
 }
@@ -123,6 +128,8 @@ impl<'a> ReportInputs<'a> {
             threshold: &analysis.threshold,
             events: &analysis.events,
             state: &analysis.state,
+            usage: &analysis.usage,
+            operation_events: &analysis.operation_events,
             source,
         }
     }
@@ -130,12 +137,13 @@ impl<'a> ReportInputs<'a> {
 
 /// The figures of a report, by file stem, in the order the report shows them: after the
 /// verdict what a maintenance engineer reads, then the specialist figures ([`APPENDIX`]).
-pub const FIGURES: [&str; 9] = [
+pub const FIGURES: [&str; 10] = [
     "risk",
     "residuals",
     "fit",
     "comparison",
     "usage",
+    "availability",
     "preprocessing",
     "acceleration",
     "training",
@@ -274,6 +282,8 @@ mod tests {
             ("risk", "time since start of data (h)"),
             ("comparison", "baseline state"),
             ("usage", "hour of day"),
+            ("availability", "availability (%)"),
+            ("availability", "door open (s)"),
         ] {
             let svg = text(name);
             let escaped = label.replace('&', "&amp;");

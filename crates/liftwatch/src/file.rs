@@ -20,6 +20,7 @@ use crate::features::FeatureConfig;
 use crate::fit::FittedModel;
 use crate::model::net::N_WEIGHTS;
 use crate::model::{FitSummary, HybridModel, PhysParams, ResidualNet, ResidualScales, TrainConfig};
+use crate::operation::OperationReference;
 use crate::output::write_atomic;
 use crate::risk::RiskConfig;
 use crate::sensor::SensorLimits;
@@ -42,6 +43,11 @@ struct ModelDocument {
     /// The aligned step of the training data (s); absent in files written before it was kept.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     step_s: Option<f64>,
+    /// Trip rates, landings and the doors' reference (`crate::operation`); absent in files
+    /// written before it was learnt (left out when absent, so such a model's identity, and
+    /// the states saved with it, stay as they were).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    operation: Option<OperationReference>,
 }
 
 /// The `risk` object of the file: the risk settings with the other stages' limits inside.
@@ -78,6 +84,7 @@ impl From<FittedModel> for ModelDocument {
             train: m.train,
             fit: m.summary,
             step_s: m.step_s,
+            operation: m.operation,
         }
     }
 }
@@ -99,6 +106,7 @@ impl From<ModelDocument> for FittedModel {
             train: d.train,
             summary: d.fit,
             step_s: d.step_s,
+            operation: d.operation,
         }
     }
 }
@@ -229,6 +237,9 @@ fn check(model: &FittedModel) -> std::result::Result<(), String> {
     model.features.validate().map_err(|e| e.to_string())?;
     model.risk.validate().map_err(|e| e.to_string())?;
     model.sensor.validate()?;
+    if let Some(op) = &model.operation {
+        op.validate()?;
+    }
     if let Some(step) = model.step_s {
         check_range("step_s", step, 1e-3, 86_400.0)?;
     }

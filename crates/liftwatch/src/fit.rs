@@ -18,6 +18,7 @@ use crate::error::Result;
 use crate::features::{FeatureConfig, Features};
 use crate::model::train::{self, TrainPoint};
 use crate::model::{FitSummary, HybridModel, PhysParams, TrainConfig};
+use crate::operation::OperationReference;
 use crate::risk::{trip_evidence, RiskConfig, TripEvidence};
 use crate::sample::AlignedSeries;
 use crate::sensor::SensorLimits;
@@ -46,6 +47,10 @@ pub struct FittedModel {
     /// per-trip calibration hold only at this step; `None` in models written before it was
     /// recorded.
     pub step_s: Option<f64>,
+    /// Trip rate per hour of the week, landings and the doors' healthy reference, for
+    /// outages, availability and the door check ([`crate::operation`]); `None` in models
+    /// written before they were learnt.
+    pub operation: Option<OperationReference>,
 }
 
 /// Everything `fit` produces: the model, and the intermediate results a report shows.
@@ -147,6 +152,14 @@ pub fn fit_with(
     summary
         .warnings
         .extend(short_training_notes(&calibrated.report, &calibrated.risk));
+    let operation = OperationReference::learn(
+        &series.samples,
+        &features.trips,
+        series.step_s,
+        feature_cfg.moving_threshold_mps,
+        elevator.floors as usize,
+        calibration.target_false_advisories_per_year,
+    );
     let model = FittedModel {
         hybrid,
         features: feature_cfg,
@@ -157,6 +170,7 @@ pub fn fit_with(
         train: cfg.clone(),
         summary,
         step_s: Some(series.step_s),
+        operation: Some(operation),
     };
     Ok(FitOutcome {
         model,
@@ -201,6 +215,7 @@ impl FittedModel {
             train: TrainConfig::default(),
             summary: FitSummary::default(),
             step_s: None,
+            operation: None,
         }
     }
 }

@@ -4,7 +4,9 @@
 //! The pipeline, one module per stage, declared below in stage order:
 //! raw telemetry ([`ingest`]) → aligned series ([`align`]) → features ([`features`]) →
 //! hybrid model ([`model`]) → dual residuals ([`residual`]) → risk ([`risk`]) →
-//! levels and events ([`alarm`]). [`sensor`] tells a broken sensor from a broken machine;
+//! levels and events ([`alarm`]). [`operation`] counts door cycles, out-of-service periods
+//! and the daily availability, and checks the doors against their healthy reference, a
+//! subsystem beside the machine with its own advisory. [`sensor`] tells a broken sensor from a broken machine;
 //! [`baseline`] is the conventional fixed-threshold method with the same output;
 //! [`calibrate`] sets the risk thresholds from healthy trips; [`fit`] runs the whole
 //! identification into one artefact, [`fit::FittedModel`], whose file form is [`file`];
@@ -62,6 +64,7 @@ pub mod sensor;
 pub mod risk;
 pub mod alarm;
 pub mod forecast;
+pub mod operation;
 pub mod baseline;
 pub mod calibrate;
 pub mod fit;

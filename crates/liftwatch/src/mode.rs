@@ -8,7 +8,12 @@
 //! friction  guide-rail / lubrication degradation: more force in both directions
 //! sensor    the data, not the machine, look wrong
 //! unknown   evidence that no signature explains clearly
+//! door      the doors: cycles slower or reopening more than the healthy reference
 //! ```
+//!
+//! `door` is a subsystem of its own beside the machine (DATA.md §4): its advisory comes from
+//! [`crate::operation`]'s door check, never from the machine risk, and it neither raises nor
+//! lowers the machine's level.
 //!
 //! The three machine modes index the per-mode arrays of the risk stage
 //! (`risk_modes[FaultMode::Motor as usize]`), in the order of [`MACHINE_MODES`].
@@ -32,6 +37,8 @@ pub enum FaultMode {
     /// No mode clearly dominates.
     #[default]
     Unknown = 4,
+    /// The doors: cycles slower or reopening more than the healthy reference.
+    Door = 5,
 }
 
 /// Number of machine fault modes with a physical signature: motor, brake, friction.
@@ -50,6 +57,7 @@ impl FaultMode {
             FaultMode::Friction => "friction",
             FaultMode::Sensor => "sensor",
             FaultMode::Unknown => "unknown",
+            FaultMode::Door => "door",
         }
     }
 
@@ -61,6 +69,7 @@ impl FaultMode {
             FaultMode::Friction => "guide rails",
             FaultMode::Sensor => "sensors",
             FaultMode::Unknown => "machine (no single signature)",
+            FaultMode::Door => "doors",
         }
     }
 
@@ -77,6 +86,9 @@ impl FaultMode {
             }
             FaultMode::Unknown => {
                 "inspect drive, brake and guides: the evidence fits no single signature yet"
+            }
+            FaultMode::Door => {
+                "inspect the door operator: belt, track and rollers, the lock and the safety edge"
             }
         }
     }
@@ -103,12 +115,13 @@ impl std::str::FromStr for FaultMode {
             FaultMode::Friction,
             FaultMode::Sensor,
             FaultMode::Unknown,
+            FaultMode::Door,
         ]
         .into_iter()
         .find(|m| m.as_str() == s)
         .ok_or_else(|| Error::InvalidConfig {
             field: "mode",
-            why: format!("`{s}`, expected motor, brake, friction, sensor or unknown"),
+            why: format!("`{s}`, expected motor, brake, friction, sensor, unknown or door"),
         })
     }
 }
@@ -124,11 +137,17 @@ mod tests {
             assert!(m.is_machine());
         }
         assert!(!FaultMode::Sensor.is_machine() && !FaultMode::Unknown.is_machine());
+        assert!(!FaultMode::Door.is_machine());
     }
 
     #[test]
     fn names_round_trip_through_text_and_json() {
-        for m in [FaultMode::Motor, FaultMode::Sensor, FaultMode::Unknown] {
+        for m in [
+            FaultMode::Motor,
+            FaultMode::Sensor,
+            FaultMode::Unknown,
+            FaultMode::Door,
+        ] {
             assert_eq!(m.as_str().parse::<FaultMode>().unwrap(), m);
             assert_eq!(serde_json::to_string(&m).unwrap(), format!("\"{m}\""));
         }

@@ -195,8 +195,10 @@ impl AtomicFile {
         sweep_stale(&target);
         let temp = temp_path(&target);
         let file = File::create(&temp).map_err(|e| Error::io(&target, e))?;
-        let out = match Out::new(Dest::File(BufWriter::with_capacity(1 << 16, file)), compression)
-        {
+        let out = match Out::new(
+            Dest::File(BufWriter::with_capacity(1 << 16, file)),
+            compression,
+        ) {
             Ok(out) => out,
             Err(e) => {
                 let _ = std::fs::remove_file(&temp);

@@ -12,7 +12,14 @@
 //! evidence                           R against its levels, the sequential decision, the trips
 //! caveats                            what the model itself cannot promise: short training,
 //!                                    parameters set by their priors, uncalibrated thresholds
+//! availability                       the last day's and the last 7 days' (crate::operation),
+//!                                    an outage under way or the last one
+//! doors                              the door check's level, the recent cycles' median and
+//!                                    reopening rate against the healthy reference
 //! ```
+//!
+//! The doors are a subsystem of their own: their advisory is stated on its own line and
+//! never changes the machine's level, mode or headline.
 //!
 //! Times are UTC dates when the data's clock is Unix time, days of the data clock otherwise
 //! ([`crate::ingest::time::day_text`]).
@@ -25,6 +32,7 @@ use crate::forecast::{unit_of, Forecast, ModeForecast, When};
 use crate::ingest::time::{day_text, instant_text, is_calendar};
 use crate::mode::{FaultMode, MACHINE_MODES, N_MODES};
 use crate::monitor::MonitorState;
+use crate::operation::Outage;
 use crate::risk::friction_reference;
 
 /// Hours of healthy training below which the verdict says the model is short of data: a
@@ -76,6 +84,161 @@ pub struct Verdict {
     pub trips: [u64; 2],
     /// What the model cannot promise.
     pub caveats: Vec<String>,
+    /// Availability and doors.
+    pub service: ServiceVerdict,
+}
+
+/// An outage as the verdict states it (plain numbers; `end` null while under way).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct OutageView {
+    /// `out_of_service` or `stuck_between_floors`.
+    pub kind: crate::operation::OutageKind,
+    /// When the car last moved (s).
+    pub start: f64,
+    /// When it moved again (s), null while under way.
+    pub end: Option<f64>,
+    /// When the monitor concluded it (s).
+    pub detected_at: f64,
+    /// For people: where it stood, the door.
+    pub reason: String,
+}
+
+impl From<&Outage> for OutageView {
+    fn from(o: &Outage) -> Self {
+        OutageView {
+            kind: o.kind,
+            start: o.start,
+            end: o.end.is_finite().then_some(o.end),
+            detected_at: o.detected_at,
+            reason: o.reason(),
+        }
+    }
+}
+
+/// Availability and door health, beside the machine's verdict.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ServiceVerdict {
+    /// Availability of the last day watched (0-1), NaN (null) without data.
+    pub availability_last_day: f64,
+    /// Availability over the last 7 days watched (0-1).
+    pub availability_7_days: f64,
+    /// Trips and door cycles of the last day watched.
+    pub trips_last_day: u64,
+    /// Door cycles of the last day watched.
+    pub door_cycles_last_day: u64,
+    /// The outage under way.
+    pub outage: Option<OutageView>,
+    /// The last outage that ended.
+    pub last_outage: Option<OutageView>,
+    /// The door check: `advisory` or `normal`; `unchecked` for a model without a door
+    /// reference.
+    pub door_level: &'static str,
+    /// Median duration of the recent door cycles (s) and their reopenings per cycle.
+    pub door_cycle_median_s: f64,
+    /// Reopenings per recent cycle.
+    pub door_reopen_rate: f64,
+    /// The healthy reference's median (s) and reopening rate, NaN without one.
+    pub reference: [f64; 2],
+}
+
+impl ServiceVerdict {
+    /// From the monitor's operation tracker and the model's reference.
+    pub fn new(model: &FittedModel, state: &MonitorState) -> ServiceVerdict {
+        let op = &state.operation;
+        let last = op.days.back().copied().unwrap_or_default();
+        let (median, reopen, _) = op.recent_doors();
+        let door = model.operation.as_ref().and_then(|o| o.door.as_ref());
+        ServiceVerdict {
+            availability_last_day: op.availability(1),
+            availability_7_days: op.availability(7),
+            trips_last_day: last.trips,
+            door_cycles_last_day: last.door_cycles,
+            outage: op.open.as_ref().map(OutageView::from),
+            last_outage: op.last_outage.as_ref().map(OutageView::from),
+            door_level: match door {
+                None => "unchecked",
+                Some(_) if op.door.raised => "advisory",
+                Some(_) => "normal",
+            },
+            door_cycle_median_s: median,
+            door_reopen_rate: reopen,
+            reference: door.map_or([f64::NAN; 2], |d| [d.median_s, d.reopen_rate]),
+        }
+    }
+
+    /// `Availability: 83.2 % on the last day, 97.6 % over 7 days; out of service since …`.
+    pub fn availability_line(&self) -> String {
+        let pct = |x: f64| {
+            if x.is_finite() {
+                format!("{:.1} %", 100.0 * x)
+            } else {
+                "unknown".into()
+            }
+        };
+        let mut s = format!(
+            "Availability: {} on the last day ({} trips, {} door cycles), {} over the last 7 days",
+            pct(self.availability_last_day),
+            self.trips_last_day,
+            self.door_cycles_last_day,
+            pct(self.availability_7_days)
+        );
+        if let Some(o) = &self.outage {
+            s.push_str(&format!(
+                "; OUT OF SERVICE since {} ({}), concluded at {}",
+                instant_text(o.start),
+                o.reason,
+                instant_text(o.detected_at)
+            ));
+        } else if let Some(o) = &self.last_outage {
+            s.push_str(&format!(
+                "; last outage {} to {} ({})",
+                instant_text(o.start),
+                o.end.map_or("now".into(), instant_text),
+                o.reason
+            ));
+        }
+        s.push('.');
+        s
+    }
+
+    /// `Doors: ADVISORY, cycles 13 s (healthy 11 s), reopenings 9 % (healthy 3 %); inspect …`.
+    pub fn door_line(&self) -> String {
+        let figures = format!(
+            "cycles {} (healthy {}), reopenings {} (healthy {})",
+            secs(self.door_cycle_median_s),
+            secs(self.reference[0]),
+            share(self.door_reopen_rate),
+            share(self.reference[1])
+        );
+        match self.door_level {
+            "advisory" => format!(
+                "Doors: ADVISORY, {figures}; {}.",
+                FaultMode::Door.inspect()
+            ),
+            "normal" => format!("Doors: normal, {figures}."),
+            _ => format!(
+                "Doors: not checked (the model has no door reference; refit to learn one), cycles {}, reopenings {}.",
+                secs(self.door_cycle_median_s),
+                share(self.door_reopen_rate)
+            ),
+        }
+    }
+}
+
+fn secs(x: f64) -> String {
+    if x.is_finite() {
+        format!("{x:.0} s")
+    } else {
+        "unknown".into()
+    }
+}
+
+fn share(x: f64) -> String {
+    if x.is_finite() {
+        format!("{:.0} %", 100.0 * x)
+    } else {
+        "unknown".into()
+    }
 }
 
 impl Verdict {
@@ -123,6 +286,7 @@ impl Verdict {
             changed_trips: state.held_window_trips(cfg),
             trips: [state.risk_trips(), state.implausible_trips],
             caveats: caveats(model, state),
+            service: ServiceVerdict::new(model, state),
         }
     }
 
@@ -130,6 +294,8 @@ impl Verdict {
     /// opens with.
     pub fn lines(&self) -> Vec<String> {
         let mut out = vec![self.headline()];
+        out.push(self.service.availability_line());
+        out.push(self.service.door_line());
         out.push(format!(
             "Forecast: {}",
             self.forecast_text().unwrap_or_else(|| format!(

@@ -205,19 +205,33 @@ impl Sink<'_> {
             Rows::File(_) | Rows::Gone => {}
         }
         self.highest = self.highest.max(r.level);
-        if let (Some(e), Some(f)) = (&r.event, &mut self.events) {
+        if let Some(e) = &r.event {
             let line = self.monitor.event_line(e);
-            let mut extra = self.event_extra.clone();
-            if let TimeFormat::Rfc3339 { offset_s } = self.time {
-                let at = liftwatch::ingest::time::format_rfc3339(e.time, offset_s);
-                extra.push_str(&format!(r#","time_rfc3339":"{at}""#));
-            }
-            match line.strip_suffix('}') {
-                Some(body) if !extra.is_empty() => writeln!(f, "{body}{extra}}}")?,
-                _ => writeln!(f, "{line}")?,
-            }
-            self.events_written += 1;
+            self.write_event(&line, e.time)?;
         }
+        if let Some(e) = &r.operation {
+            let line = self.monitor.operation_event_line(e);
+            self.write_event(&line, e.time())?;
+        }
+        Ok(())
+    }
+
+    /// One event line with the elevator's name and id (and the time in RFC 3339 under
+    /// `--time-format rfc3339`) appended.
+    fn write_event(&mut self, line: &str, time: f64) -> std::io::Result<()> {
+        let Some(f) = &mut self.events else {
+            return Ok(());
+        };
+        let mut extra = self.event_extra.clone();
+        if let TimeFormat::Rfc3339 { offset_s } = self.time {
+            let at = liftwatch::ingest::time::format_rfc3339(time, offset_s);
+            extra.push_str(&format!(r#","time_rfc3339":"{at}""#));
+        }
+        match line.strip_suffix('}') {
+            Some(body) if !extra.is_empty() => writeln!(f, "{body}{extra}}}")?,
+            _ => writeln!(f, "{line}")?,
+        }
+        self.events_written += 1;
         Ok(())
     }
 }

@@ -2,13 +2,17 @@
 //!
 //! Writes `raw.csv`, `aligned.csv`, `elevator.toml` and `truth.json` into `--out`. With a
 //! fault scenario the degradation starts at 40 % of the span and grows linearly to full
-//! severity at the end unless `--onset-days`, `--full-days` or `--ramp` say otherwise.
+//! severity at the end unless `--onset-days`, `--full-days` or `--ramp` say otherwise. The
+//! same timing serves `--doors slowing` (the wear of the doors) and `--outage` (which starts
+//! at the onset).
 
 use std::path::PathBuf;
 
 use anyhow::Context;
 use liftwatch::mode::FaultMode;
-use liftwatch::sim::{self, truth_name, Ramp, Scenario, SensorFault, SimConfig};
+use liftwatch::sim::{
+    self, truth_name, DoorBehaviour, OutageKind, OutagePlan, Ramp, Scenario, SensorFault, SimConfig,
+};
 use liftwatch::Elevator;
 
 use super::ui::{Ui, UiArgs};
@@ -69,10 +73,49 @@ pub struct Args {
     /// constant-k cell (feels a fixed mass only).
     #[arg(long, value_enum, default_value_t = LoadCellArg::Platform)]
     pub load_cell: LoadCellArg,
+    /// The doors: catalogue timings that never reopen (the default), the field's (3 % of
+    /// cycles reopen), or the field's slowing and reopening more from the onset.
+    #[arg(long, value_enum, default_value_t = DoorsArg::Ideal)]
+    pub doors: DoorsArg,
+    /// An outage from the onset: the car out of service at a landing, or stuck between two.
+    #[arg(long, value_enum, default_value_t = OutageArg::None)]
+    pub outage: OutageArg,
+    /// How long the outage lasts (hours); default 4 out of service, 0.5 stuck.
+    #[arg(long)]
+    pub outage_hours: Option<f64>,
     /// Summary: --quiet, --json.
     #[command(flatten)]
     pub ui: UiArgs,
 }
+
+/// `--doors`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum DoorsArg {
+    /// Catalogue timings, no reopening (every run before doors were modelled).
+    Ideal,
+    /// Catalogue timings, 3 % of cycles reopen.
+    Field,
+    /// The field's doors, slowing and reopening more from the onset.
+    Slowing,
+}
+
+/// `--outage`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum OutageArg {
+    /// No outage.
+    None,
+    /// Out of service at a landing, door open or closed.
+    OutOfService,
+    /// Stuck between two landings, door closed.
+    Stuck,
+}
+
+/// Default length of an out-of-service period (hours): a fault lock-out until a technician
+/// comes, half a working day.
+const OUT_OF_SERVICE_HOURS: f64 = 4.0;
+
+/// Default time stuck between landings (hours): a trapped car freed within half an hour.
+const STUCK_HOURS: f64 = 0.5;
 
 /// `--drive-at-rest`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -178,6 +221,23 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             duration_s: 3600.0,
         }),
     };
+    cfg.doors = match args.doors {
+        DoorsArg::Ideal => DoorBehaviour::Ideal,
+        DoorsArg::Field => DoorBehaviour::Field,
+        DoorsArg::Slowing => DoorBehaviour::slowing(onset, ramp, full, args.severity)?,
+    };
+    let outage = match args.outage {
+        OutageArg::None => None,
+        OutageArg::OutOfService => Some((OutageKind::OutOfService, OUT_OF_SERVICE_HOURS)),
+        OutageArg::Stuck => Some((OutageKind::StuckBetweenFloors, STUCK_HOURS)),
+    };
+    if let Some((kind, hours)) = outage {
+        cfg.outages.push(OutagePlan {
+            kind,
+            start_s: onset,
+            duration_s: args.outage_hours.unwrap_or(hours) * 3600.0,
+        });
+    }
     cfg.validate()?;
     if args.drive_at_rest != DriveArg::Energised || args.load_cell != LoadCellArg::Platform {
         let mut plant = cfg.hidden_plant();

@@ -12,6 +12,7 @@ use anyhow::Context;
 use liftwatch::file;
 use liftwatch::monitor::{model_fingerprint, MonitorState};
 use liftwatch::verdict::Verdict;
+use std::io::Write;
 
 /// Flags of `liftwatch status`.
 #[derive(Debug, clap::Args)]
@@ -40,12 +41,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         args.model.display()
     );
     let verdict = Verdict::new(&model, &state);
+    // Written, not printed: a reader that goes away (`status | head -1`) is an I/O error
+    // that ends the run quietly with 141, never a panic.
+    let mut out = std::io::stdout().lock();
     if args.json {
-        println!("{}", serde_json::to_string(&verdict)?);
+        writeln!(out, "{}", serde_json::to_string(&verdict)?)?;
     } else {
         for line in verdict.lines() {
-            println!("{line}");
+            writeln!(out, "{line}")?;
         }
     }
+    out.flush()?;
     Ok(())
 }

@@ -7,9 +7,10 @@
 //! One file per figure family, in report order: [`signals`] (stages 2-3: the aligned signals
 //! and the fused acceleration), [`training`] (stage 4: loss and θ), [`fit`] and [`residuals`]
 //! (stage 5: `r_U = U − U_pred`, `r_F = F_pred − F_U`), [`risk`] (stages 6-7), [`comparison`]
-//! (the fixed-threshold baseline), [`usage`]. This file holds what they share: the derived
+//! (the fixed-threshold baseline), [`usage`], [`availability`] (outages and doors). This file holds what they share: the derived
 //! data [`Ctx`], the time axis [`Time`], number formatting and line builders.
 
+mod availability;
 mod comparison;
 mod fit;
 #[cfg(test)]
@@ -44,6 +45,7 @@ pub(crate) fn all(inp: &ReportInputs) -> Vec<Section> {
         fit::fit(&c),
         comparison::comparison(&c),
         usage::usage(&c),
+        availability::availability(&c),
         signals::preprocessing(&c, pa, pb),
         signals::acceleration(&c, pa, pb),
     ];

@@ -156,7 +156,7 @@ impl Metrics<'_> {
                 100.0 * (fx.friction_factor - 1.0),
             ),
             FaultMode::Brake => (ev.brake_drag_n, ev.brake_drag_se_n, fx.brake_drag_n),
-            FaultMode::Sensor | FaultMode::Unknown => return None,
+            FaultMode::Sensor | FaultMode::Unknown | FaultMode::Door => return None,
         };
         let z = (got - truth) / se;
         z.is_finite().then_some(z)

@@ -137,6 +137,7 @@ mod tests {
             brake_drag_n: f64::NAN,
             trip,
             trip_end: None,
+            operation: None,
         };
         let mut g = TripGrouper::new(2.0);
         let mut trips = Vec::new();

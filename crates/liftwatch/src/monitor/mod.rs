@@ -43,6 +43,7 @@ use crate::features::{FeatureRow, FeatureTracker, Trip};
 use crate::fit::FittedModel;
 use crate::forecast::DriftHistory;
 use crate::mode::MACHINE_MODES;
+use crate::operation::{DayUsage, OperationEvent, OperationTracker};
 use crate::output::write_atomic;
 use crate::residual::{PredictionCache, Residuals};
 use crate::risk::{friction_reference, RiskTracker, TripAccumulator};
@@ -122,6 +123,9 @@ pub struct MonitorRow {
     /// Set at the row where a trip is reported: the trip and its mean residuals (the rows
     /// of [`TripRowWriter`]).
     pub trip_end: Option<TripSummary>,
+    /// An outage or door event of [`crate::operation`] handed out with this row (at most
+    /// one per row; the rest wait for the next rows). Not written to the CSV.
+    pub operation: Option<OperationEvent>,
 }
 
 /// Runs the streaming monitor of `method` over a whole series with no saved state: one row
@@ -152,6 +156,11 @@ pub struct Analysis {
     pub events: Vec<Event>,
     /// The paper's method's state at the end of the series: what the verdict reads.
     pub state: MonitorState,
+    /// Usage and availability of every day of the series (the state keeps only the last
+    /// [`crate::operation::USAGE_DAYS`]).
+    pub usage: Vec<DayUsage>,
+    /// The outage and door events, in order.
+    pub operation_events: Vec<OperationEvent>,
 }
 
 impl Analysis {
@@ -159,16 +168,38 @@ impl Analysis {
     pub fn run(model: &FittedModel, series: &crate::sample::AlignedSeries) -> Self {
         let features = crate::features::extract(series, &model.features);
         let mut m = Monitor::new(model, Method::Pinn);
-        let mut pinn: Vec<MonitorRow> = series.samples.iter().filter_map(|s| m.push(s)).collect();
+        let mut usage: Vec<DayUsage> = Vec::new();
+        let mut pinn: Vec<MonitorRow> = Vec::with_capacity(series.len());
+        for s in &series.samples {
+            pinn.extend(m.push(s));
+            // A day is copied when the next begins; outage seconds dated back into a day
+            // already copied are taken again from the state below.
+            let days = &m.state_ref().operation.days;
+            if let (Some(&last), Some(&prev)) = (days.back(), days.iter().rev().nth(1)) {
+                if usage.last().map_or(true, |u| u.day < prev.day) && last.day > prev.day {
+                    usage.push(prev);
+                }
+            }
+        }
         pinn.extend(m.finish());
+        let state = m.state();
+        for d in &state.operation.days {
+            match usage.iter_mut().find(|u| u.day == d.day) {
+                Some(u) => *u = *d,
+                None => usage.push(*d),
+            }
+        }
         let threshold = run(model, &series.samples, Method::Threshold);
         let events = pinn.iter().filter_map(|r| r.event).collect();
+        let operation_events = pinn.iter().filter_map(|r| r.operation).collect();
         Analysis {
             features,
             pinn,
             threshold,
             events,
-            state: m.state(),
+            state,
+            usage,
+            operation_events,
         }
     }
 }
@@ -224,6 +255,14 @@ pub struct MonitorState {
     /// written before it was kept (bounded: [`crate::forecast::MAX_POINTS`] blocks).
     #[serde(default)]
     pub drifts: DriftHistory,
+    /// Door cycles, outages, usage per day and the door check ([`crate::operation`]); states
+    /// written before it was kept start with nothing seen.
+    #[serde(default)]
+    pub operation: OperationTracker,
+    /// Trips not taken as machine evidence because the car was serving the backlog of an
+    /// outage ([`crate::operation::OUTAGE_BACKLOG_S`]); 0 in states written before.
+    #[serde(default)]
+    pub backlog_trips: u64,
 }
 
 impl MonitorState {
@@ -320,6 +359,13 @@ impl MonitorState {
     }
 }
 
+/// The model's aligned step, or alignment's default for a model without one (s).
+fn model_step(model: &FittedModel) -> f64 {
+    model
+        .step_s
+        .unwrap_or_else(|| crate::align::AlignConfig::default().step_s)
+}
+
 /// Default of [`MonitorState::last_time`] for states written before it was recorded.
 fn nan() -> f64 {
     f64::NAN
@@ -334,6 +380,9 @@ pub struct Monitor {
     friction: (f64, f64),
     cache: PredictionCache,
     st: MonitorState,
+    /// The aligned step (s): the model's, or alignment's default for a model written before
+    /// the step was recorded (the CLI's step guard aligns at the same).
+    step_s: f64,
 }
 
 impl Monitor {
@@ -359,12 +408,15 @@ impl Monitor {
             events: 0,
             episode_since: f64::NAN,
             drifts: DriftHistory::default(),
+            operation: OperationTracker::new(),
+            backlog_trips: 0,
         };
         Monitor {
             model: model.clone(),
             friction: friction_reference(&model.hybrid),
             cache: PredictionCache::default(),
             st,
+            step_s: model_step(model),
         }
     }
 
@@ -391,6 +443,7 @@ impl Monitor {
             friction: friction_reference(&model.hybrid),
             cache: PredictionCache::default(),
             st: state,
+            step_s: model_step(model),
         })
     }
 
@@ -432,9 +485,26 @@ impl Monitor {
             &self.model.sensor,
             self.model.features.moving_threshold_mps,
         );
+        self.st.operation.push(
+            x,
+            self.step_s,
+            self.model.features.moving_threshold_mps,
+            self.model.operation.as_ref(),
+        );
         let row = self.st.features.push(x)?;
         let trip = self.st.features.take_trip();
-        Some(self.step(&row, trip))
+        if let Some(t) = &trip {
+            self.st.operation.trip(t, self.model.operation.as_ref());
+        }
+        let mut row = self.step(&row, trip);
+        row.operation = self.st.operation.take_event();
+        Some(row)
+    }
+
+    /// The operation event as one JSON line (DATA.md §4, [`OperationEvent::to_json_line`]):
+    /// an outage's start or end, or the door advisory raised or released.
+    pub fn operation_event_line(&self, e: &OperationEvent) -> String {
+        e.to_json_line()
     }
 
     /// End of data for good: the rows still held. Without it (a saved state instead), the
@@ -449,7 +519,12 @@ impl Monitor {
             } else {
                 None
             };
-            out.push(self.step(row, trip));
+            if let Some(t) = &trip {
+                self.st.operation.trip(t, self.model.operation.as_ref());
+            }
+            let mut r = self.step(row, trip);
+            r.operation = self.st.operation.take_event();
+            out.push(r);
         }
         // The tracker drops a trip still running; so does the evidence.
         self.st.trip = TripAccumulator::default();
@@ -513,7 +588,11 @@ impl Monitor {
         let Some(ev) = st.trip.finish(plausible) else {
             return;
         };
-        if plausible {
+        if st.operation.serving_backlog(t.start_time) {
+            // Just back from an outage (or the rescue run of a stuck car): not machine
+            // evidence, as crate::operation::OUTAGE_BACKLOG_S says why.
+            st.backlog_trips = st.backlog_trips.saturating_add(1);
+        } else if plausible {
             st.risk.push(&self.model.risk, &ev);
             st.drifts.push(&self.model.risk, &ev, ev.end);
         } else {
@@ -562,6 +641,7 @@ impl Monitor {
             brake_drag_n: self.friction.0 * a.drift[BRAKE],
             trip: x.trip,
             trip_end: None,
+            operation: None,
         }
     }
 
@@ -589,6 +669,7 @@ impl Monitor {
             brake_drag_n: f64::NAN,
             trip: x.trip,
             trip_end: None,
+            operation: None,
         }
     }
 }
@@ -667,6 +748,32 @@ mod tests {
     }
 
     #[test]
+    fn a_state_and_a_model_from_before_availability_still_work() {
+        // A model without `operation` writes no such key, so its identity (and the states
+        // saved with it) are those it had before; a state without `operation` or
+        // `backlog_trips` resumes with nothing seen.
+        let model = test_model();
+        assert!(model.operation.is_none());
+        let json = serde_json::to_value(&model).unwrap();
+        assert!(json.get("operation").is_none());
+        let xs = samples(0.05, 6, None);
+        let mut m = Monitor::new(&model, Method::Pinn);
+        for x in &xs[..1000] {
+            let _ = m.push(x);
+        }
+        let mut state = serde_json::to_value(m.state()).unwrap();
+        let obj = state.as_object_mut().unwrap();
+        assert!(obj.remove("operation").is_some() && obj.remove("backlog_trips").is_some());
+        let old: MonitorState = serde_json::from_value(state).unwrap();
+        assert_eq!(old.operation.days.len(), 0);
+        let mut b = Monitor::resume(&model, old).unwrap();
+        for x in &xs[1000..] {
+            let _ = b.push(x);
+        }
+        assert!(b.state_ref().operation.days.back().unwrap().observed_s > 0.0);
+    }
+
+    #[test]
     fn a_state_from_another_model_is_refused() {
         let model = test_model();
         let mut other = test_model();
@@ -741,6 +848,7 @@ mod tests {
             brake_drag_n: f64::NAN,
             trip: Some(3),
             trip_end: None,
+            operation: None,
         };
         assert_eq!(
             csv(&[r]).lines().nth(1).unwrap(),

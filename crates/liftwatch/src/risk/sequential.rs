@@ -66,6 +66,14 @@ pub const N_SIZES: usize = 2;
 /// real degradation gives. A change of up to 3 standard errors per trip passes unclipped.
 pub const CLIP: f64 = 3.0;
 
+/// The CUSUM's increment for a score `u` of unit variance and a change of size `nu` (in its
+/// standard deviations): the log-likelihood ratio ν·u − ν²/2 of a mean ν against 0. The one
+/// increment of every CUSUM of the crate (this bank, the doors of [`crate::operation`]):
+/// G ← max(0, G + gaussian_llr(ν, u)).
+pub fn gaussian_llr(nu: f64, u: f64) -> f64 {
+    nu * u - 0.5 * nu * nu
+}
+
 /// A mode is named when its signature alone explains the window this many times more likely
 /// than the runner-up's: 20 to 1, a conventional "strong" likelihood ratio.
 pub const ISOLATION_ODDS: f64 = 20.0;
@@ -343,7 +351,7 @@ impl Sequential {
                 let u = if j == REFERENCE_SIZE { u_beyond } else { u };
                 let nu = cfg.delta(m, j) * (info[m] / cfg.s2[m]).sqrt();
                 let c = &mut self.bank[m][j];
-                c.g += nu * u - 0.5 * nu * nu;
+                c.g += gaussian_llr(nu, u);
                 if c.g <= 0.0 {
                     *c = Cusum::default();
                     continue;

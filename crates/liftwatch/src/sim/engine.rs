@@ -1,10 +1,15 @@
 //! The simulator's time loop: dispatcher, motion, doors and brake, the plant's physics and
 //! the logger, second by second (timings and equations in the module docs of [`super`]).
 
+use super::service::DOOR_STREAM_SALT;
 use super::*;
 
 /// Most calls waiting at once; beyond it new calls are dropped (people take the stairs).
 const MAX_QUEUE: usize = 400;
+
+/// Most reopenings in a row after one door cycle: a door that bounces more often than this is
+/// taken out of the loop by the controller (and the simulation cannot loop for ever).
+const MAX_REOPENINGS: u32 = 5;
 
 /// Motion of the car during one stretch of time.
 #[derive(Clone, Copy)]
@@ -55,6 +60,12 @@ pub(super) struct Engine<'a, S: SimSink> {
     summary: SimSummary,
     load_time: f64,
     imbalance_time: f64,
+    /// The doors' own random stream ([`DOOR_STREAM_SALT`]); never drawn with ideal doors.
+    door_rng: Rng,
+    /// Outages still to come, earliest first.
+    outages: Vec<OutagePlan>,
+    /// Outages as they happened.
+    outages_done: Vec<OutageTruth>,
 }
 
 impl<'a, S: SimSink> Engine<'a, S> {
@@ -119,12 +130,66 @@ impl<'a, S: SimSink> Engine<'a, S> {
             },
             load_time: 0.0,
             imbalance_time: 0.0,
+            door_rng: Rng::new(cfg.seed ^ DOOR_STREAM_SALT),
+            outages: {
+                let mut o = cfg.outages.clone();
+                o.sort_by(|a, b| a.start_s.total_cmp(&b.start_s));
+                o
+            },
+            outages_done: Vec::new(),
         }
+    }
+
+    /// The outages as they happened, in time order.
+    pub(super) fn outages_done(&mut self) -> Vec<OutageTruth> {
+        std::mem::take(&mut self.outages_done)
+    }
+
+    /// The first outage of `kind` due by now, taken off the list.
+    fn take_due(&mut self, kind: OutageKind) -> Option<OutagePlan> {
+        let k = self
+            .outages
+            .iter()
+            .position(|o| o.kind == kind && o.start_s <= self.t)?;
+        Some(self.outages.remove(k))
+    }
+
+    /// Start of the next out-of-service period still to come (∞ when none): idle rests end
+    /// there, so the car goes out of service on time.
+    fn next_out_of_service(&self) -> f64 {
+        self.outages
+            .iter()
+            .filter(|o| o.kind == OutageKind::OutOfService)
+            .map(|o| o.start_s)
+            .fold(f64::INFINITY, f64::min)
+    }
+
+    /// Out of service: the car stands at its landing, door open or closed (drawn), for the
+    /// plan's duration; calls keep arriving and wait (or are dropped).
+    fn out_of_service(&mut self, plan: OutagePlan) -> Result<()> {
+        let door_open = self.door_rng.chance(0.5);
+        let start = self.t;
+        self.door = door_open;
+        // Calls arriving meanwhile are admitted (or dropped) at the next turn of the loop.
+        self.rest(start + plan.duration_s)?;
+        self.door = false;
+        self.outages_done.push(OutageTruth {
+            kind: plan.kind,
+            start_s: start,
+            end_s: self.t,
+            door_open,
+            position: format!("landing {}", self.floor + 1),
+        });
+        Ok(())
     }
 
     pub(super) fn run(&mut self) -> Result<()> {
         while self.t < self.end {
             self.admit_calls();
+            if let Some(plan) = self.take_due(OutageKind::OutOfService) {
+                self.out_of_service(plan)?;
+                continue;
+            }
             if !self.riders.is_empty() {
                 let dest = self.next_stop();
                 self.travel_to(dest)?;
@@ -133,7 +198,11 @@ impl<'a, S: SimSink> Engine<'a, S> {
                 self.travel_to(origin)?;
                 self.stop_and_transfer()?;
             } else {
-                let until = self.next_call.time.min(self.end);
+                let until = self
+                    .next_call
+                    .time
+                    .min(self.end)
+                    .min(self.next_out_of_service().max(self.t));
                 if self.floor != 0 && until - self.t > 300.0 && self.rng.chance(0.5) {
                     self.rest(self.t + 300.0)?;
                     self.travel_to(0)?;
@@ -206,11 +275,53 @@ impl<'a, S: SimSink> Engine<'a, S> {
         }
         let dir: i8 = if dest > self.floor { 1 } else { -1 };
         self.dir_travel = dir;
+        if let Some(plan) = self.take_due(OutageKind::StuckBetweenFloors) {
+            return self.stuck_trip(dest, dir, plan);
+        }
+        self.run_to(self.p.floor_positions_m[dest], dir)?;
+        self.floor = dest;
+        Ok(())
+    }
+
+    /// A trip towards `dest` that stops between the two landings half-way along it, stands
+    /// there for the plan's duration (door closed, brake dropped), then a rescue run to the
+    /// landing ahead.
+    fn stuck_trip(&mut self, dest: usize, dir: i8, plan: OutagePlan) -> Result<()> {
+        let from = self.floor;
+        // The landing gap (a, b), b one landing ahead of a, half-way from `from` to `dest`.
+        let (a, b) = if dir > 0 {
+            let a = from + (dest - from - 1) / 2;
+            (a, a + 1)
+        } else {
+            let a = from - (from - dest - 1) / 2;
+            (a, a - 1)
+        };
+        let fl = &self.p.floor_positions_m;
+        let between = 0.5 * (fl[a] + fl[b]);
+        self.run_to(between, dir)?;
+        let start = self.t;
+        self.rest(start + plan.duration_s)?;
+        let end = self.t;
+        let ahead = self.p.floor_positions_m[b];
+        self.run_to(ahead, dir)?;
+        self.floor = b;
+        let (lo, hi) = (a.min(b) + 1, a.max(b) + 1);
+        self.outages_done.push(OutageTruth {
+            kind: plan.kind,
+            start_s: start,
+            end_s: end,
+            door_open: false,
+            position: format!("between landings {lo} and {hi}"),
+        });
+        Ok(())
+    }
+
+    /// Brake lift, S-curve run to position `target` in direction `dir`, levelling.
+    fn run_to(&mut self, target: f64, dir: i8) -> Result<()> {
         self.dir_signal = dir;
         self.energised = true;
         let lift = self.rng.uniform(0.5, 1.2);
         self.rest(self.t + lift)?;
-        let target = self.p.floor_positions_m[dest];
         let p = self.p;
         let curve = SCurve::new(
             (target - self.pos).abs(),
@@ -229,7 +340,6 @@ impl<'a, S: SimSink> Engine<'a, S> {
             },
         )?;
         self.pos = target;
-        self.floor = dest;
         self.summary.trips += 1;
         let level = self.rng.uniform(0.3, 0.8);
         self.rest(self.t + level)?;
@@ -241,7 +351,8 @@ impl<'a, S: SimSink> Engine<'a, S> {
     /// Door cycle: riders for this landing leave, waiting calls going our way board.
     fn stop_and_transfer(&mut self) -> Result<()> {
         self.door = true;
-        let opening = self.rng.uniform(1.5, 2.5);
+        // × 1 exactly for ideal or unworn doors: the same times as before doors were modelled.
+        let opening = self.rng.uniform(1.5, 2.5) * self.cfg.doors.slow_factor(self.t);
         self.rest(self.t + opening)?;
         let here = self.floor;
         let mut k = 0;
@@ -286,9 +397,37 @@ impl<'a, S: SimSink> Engine<'a, S> {
         }
         let open = self.rng.uniform(3.0, 6.0);
         self.rest(self.t + open)?;
-        let closing = self.rng.uniform(2.0, 3.5);
+        let closing = self.rng.uniform(2.0, 3.5) * self.cfg.doors.slow_factor(self.t);
         self.rest(self.t + closing)?;
         self.door = false;
+        self.reopenings()
+    }
+
+    /// Reopenings after the door shut (never with ideal doors, which draw nothing here): the
+    /// door stays shut 0.5-3 s, opens again, dwells 1-3 s and closes, while the draw says so.
+    fn reopenings(&mut self) -> Result<()> {
+        if self.cfg.doors.is_ideal() {
+            return Ok(());
+        }
+        let mut n = 0;
+        while n < MAX_REOPENINGS
+            && self
+                .door_rng
+                .chance(self.cfg.doors.reopen_probability(self.t))
+        {
+            n += 1;
+            let shut = self.door_rng.uniform(0.5, 3.0);
+            self.rest(self.t + shut)?;
+            self.door = true;
+            let slow = self.cfg.doors.slow_factor(self.t);
+            let opening = self.door_rng.uniform(1.5, 2.5) * slow;
+            self.rest(self.t + opening)?;
+            let dwell = self.door_rng.uniform(1.0, 3.0);
+            self.rest(self.t + dwell)?;
+            let closing = self.door_rng.uniform(2.0, 3.5) * slow;
+            self.rest(self.t + closing)?;
+            self.door = false;
+        }
         Ok(())
     }
 

@@ -64,6 +64,7 @@ pub mod logger;
 pub mod motion;
 pub mod plant;
 pub mod scenario;
+pub mod service;
 pub mod stream;
 pub mod traffic;
 
@@ -83,6 +84,7 @@ pub use logger::{AlignedCsvWriter, RawCsvWriter, RawRow, Signal, ALIGNED_HEADER,
 pub use motion::{Kinematics, SCurve};
 pub use plant::{DriveAtRest, SimElevator};
 pub use scenario::{parse_scenario, truth_name, Effects, Ramp, Scenario, SensorFault};
+pub use service::{DoorBehaviour, OutageKind, OutagePlan, OutageTruth};
 pub use traffic::{Call, Traffic};
 
 use engine::Engine;
@@ -110,6 +112,10 @@ pub struct SimConfig {
     pub dropouts_per_day: f64,
     /// Hidden plant to use instead of drawing one from `elevator` and `seed`.
     pub plant: Option<SimElevator>,
+    /// How the doors behave ([`service`]): ideal by default.
+    pub doors: DoorBehaviour,
+    /// Outages to simulate, in any order ([`service`]).
+    pub outages: Vec<OutagePlan>,
 }
 
 impl SimConfig {
@@ -125,6 +131,8 @@ impl SimConfig {
             traffic_scale: 1.0,
             dropouts_per_day: 0.2,
             plant: None,
+            doors: DoorBehaviour::Ideal,
+            outages: Vec::new(),
         }
     }
 
@@ -185,6 +193,9 @@ impl SimConfig {
             if p.floor_positions_m.len() < 2 {
                 return bad("plant", "needs at least two landings".into());
             }
+        }
+        for o in &self.outages {
+            o.validate()?;
         }
         Ok(())
     }
@@ -275,6 +286,12 @@ pub struct SimTruth {
     pub plant: SimElevator,
     /// Counts of the run.
     pub summary: SimSummary,
+    /// How the doors behaved; left out for the default ideal doors.
+    #[serde(skip_serializing_if = "DoorBehaviour::is_ideal")]
+    pub doors: DoorBehaviour,
+    /// The outages as they happened; left out when none was asked for.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub outages: Vec<OutageTruth>,
 }
 
 /// An in-memory run, for tests and short spans.
@@ -349,6 +366,7 @@ pub fn run<S: SimSink>(
     let mut engine = Engine::new(cfg, &plant, &mut rng, sink, progress);
     engine.run()?;
     let summary = engine.finish()?;
+    let outages = engine.outages_done();
     Ok(SimTruth {
         seed: cfg.seed,
         start_s: cfg.start_s,
@@ -359,6 +377,8 @@ pub fn run<S: SimSink>(
         sensor_fault: cfg.sensor_fault.clone(),
         plant,
         summary,
+        doors: cfg.doors.clone(),
+        outages,
     })
 }
 

@@ -252,7 +252,7 @@ impl Scenario {
             Some(FaultMode::Friction) => e.friction_factor += self.friction_gain * sigma,
             Some(FaultMode::Brake) => e.brake_drag_n = self.brake_drag_ratio * sigma * f_c,
             // Healthy; `new` refuses the modes that are not the machine's.
-            None | Some(FaultMode::Sensor | FaultMode::Unknown) => {}
+            None | Some(FaultMode::Sensor | FaultMode::Unknown | FaultMode::Door) => {}
         }
         e
     }

@@ -6,6 +6,7 @@ mod features;
 mod forecast;
 mod layers;
 mod monitor;
+mod operation;
 mod sim;
 mod tester;
 

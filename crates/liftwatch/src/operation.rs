@@ -1,0 +1,1200 @@
+//! Availability and doors, what an owner asks first (DATA.md §4 `door` and `outage`): from
+//! the same aligned samples and the trips of [`crate::features`], door cycles, out-of-service
+//! periods, a daily availability and a door-health check with its own advisory.
+//!
+//! ```text
+//! door cycle   door 0 → 1 … 1 → 0: duration d = t_close − t_open; a reopening when it opened
+//!              within REOPEN_WINDOW_S of the previous close with no motion in between
+//! outage       at rest since t0 (the last moving sample): Λ = Σ rate(hour of week)·Δt;
+//!              out of service when Λ ≥ Λ_max and t − t0 ≥ OUTAGE_MIN_S; it began at t0, it
+//!              ends at the next moving sample
+//! stuck        a trip that ended more than LEVEL_TOLERANCE_M from every learnt landing, the
+//!              car still at rest with the door closed STUCK_LIMIT_S later: an outage from
+//!              the trip's end, whatever the hour
+//! availability per day (UTC days of the data clock): 1 − outage s / observed s
+//! door health  per scored cycle (d ≤ DOOR_CYCLE_MAX_S), two scores of healthy mean 0, sd 1:
+//!                z_d = clip((clip((d − med)/σ̂, ±3) − m_d)/s_d, ±3)          σ̂ = 1.4826·MAD
+//!                z_r = clip((clip((x − p0)/√(p0(1 − p0)), ±3) − m_r)/s_r, ±3)   x = 1: reopening
+//!              w = the healthy day-to-day wander of the daily mean z beyond its noise
+//!              one CUSUM per score and size ν (risk::sequential's sizes and increment):
+//!                G ← min(2h, max(0, G + ν·(z − 2w) − ν²/2));   advisory at G ≥ h,
+//!                released when every G < h/2
+//! ```
+//!
+//! Learnt by [`OperationReference::learn`] on the training history (`fit`): the trip rate per
+//! hour of the week (168 bins of the data clock; hours the training never saw fall back to
+//! the mean of their hour of day), Λ_max from the quietest spans the healthy car itself had,
+//! the landings from the trips' distances, and the doors' median, MAD, reopening rate and
+//! CUSUM thresholds (a moving-block bootstrap of day-long blocks of the training's cycles over
+//! ten years per false advisory, floored by Lorden's bound, as `crate::calibrate` does for
+//! the machine).
+//!
+//! Why a rate per hour of the week and Λ instead of a fixed "no trip for an hour": a car
+//! standing still at 03:00 or on a Sunday is not out of service; one standing through a
+//! Tuesday's lunch peak is. Λ is the number of trips the training says should have started
+//! by now: at the lunch peak it is reached in minutes, at night never. Λ_max is twice the
+//! largest Λ a healthy quiet span of the training reached (and at least
+//! [`OUTAGE_MIN_EXPECTED_TRIPS`]): calls come in groups, so silences are longer than a
+//! Poisson process of trips would give, and the training's own quietest span measures that.
+//!
+//! The door's check never touches the machine's risk: an outage or a slow door raises no
+//! machine event, and the machine's evidence is as before.
+
+use std::collections::VecDeque;
+
+use serde::{Deserialize, Serialize};
+
+use crate::exact;
+use crate::features::Trip;
+use crate::mode::FaultMode;
+use crate::risk::sequential::{gaussian_llr, CLIP, N_SIZES, SIZES};
+use crate::rng::{moving_blocks, BlockStart, Rng};
+use crate::sample::Sample;
+use crate::stats::{median, robust_sigma};
+
+/// A door that opens again within this long (s) of closing, the car not having moved, is
+/// reopening: a lock that failed to make, a safety edge touched, a late passenger. A new call
+/// at the same landing opens it too, but rarely so soon (the door closes after 3-6 s of dwell).
+pub const REOPEN_WINDOW_S: f64 = 5.0;
+
+/// A door open longer than this (s) is held open (a hold button, a move, a car out of
+/// service), not a cycle of the door operator: it is counted but not scored.
+pub const DOOR_CYCLE_MAX_S: f64 = 120.0;
+
+/// Shortest out-of-service period reported (s): a pause shorter than a quarter of an hour is
+/// not what an availability figure counts (and a busy car's silences are minutes long).
+pub const OUTAGE_MIN_S: f64 = 900.0;
+
+/// Λ_max is never below this many expected trips: with trips as a Poisson process the chance
+/// of a silence this long is e^−15 ≈ 3·10⁻⁷.
+pub const OUTAGE_MIN_EXPECTED_TRIPS: f64 = 15.0;
+
+/// Λ_max is this many times the largest Λ of a healthy quiet span of the training: the
+/// training's week shows only its own quietest span, a year more of them.
+pub const OUTAGE_MARGIN: f64 = 2.0;
+
+/// A car standing still with its door closed this long (s) after a trip that ended between
+/// landings is stuck: a controller that recovers from a transient fault re-levels within a
+/// minute or two, and five minutes is when trapped passengers press the alarm.
+pub const STUCK_LIMIT_S: f64 = 300.0;
+
+/// A trip ending farther than this (m) from every learnt landing ended between floors: the
+/// doors cannot open there. Storeys are 3 m or more, the 1 Hz integration of a trip's
+/// distance errs by centimetres (EN 81-20 levels to ±10 mm).
+pub const LEVEL_TOLERANCE_M: f64 = 0.5;
+
+/// Least door cycles of a training that calibrate the door check: about a quiet day's.
+pub const DOOR_MIN_CYCLES: usize = 200;
+
+/// The reference reopening rate is at least this: a training without reopenings would make
+/// every reopening of the field a change.
+pub const REOPEN_RATE_FLOOR: f64 = 0.01;
+
+/// A door score's shift within this many healthy day-to-day standard deviations (the
+/// wander w of the daily mean score beyond its noise) is no change: each cycle's score enters
+/// the CUSUMs as z − 2·w. Busier days have fuller cars and longer cycles; without the
+/// allowance a simulated healthy month raised two door advisories, each on a busy day.
+pub const DOOR_WANDER_K: f64 = 2.0;
+
+/// The wander w is at least this (score units): a week shows only its own days.
+pub const DOOR_WANDER_FLOOR: f64 = 0.1;
+
+/// Years of bootstrapped healthy door cycles per false advisory a year, as for the machine.
+pub const DOOR_BOOTSTRAP_YEARS: f64 = 10.0;
+
+/// For this long (s) after an outage ends the car serves the calls that waited through it:
+/// fuller cars, longer door cycles, a winding warming from cold, and a machine a technician
+/// may just have adjusted. Those door cycles are counted, not scored, and those trips are not
+/// machine evidence (on a simulated 4 h outage the door advisory came 30 min, and a machine
+/// `friction` advisory 70 min, after service resumed).
+pub const OUTAGE_BACKLOG_S: f64 = 3600.0;
+
+/// Days of usage kept in the monitor state (trips, door cycles, availability per day).
+pub const USAGE_DAYS: usize = 60;
+
+/// Door cycles kept for the figures an event and the verdict quote (median, reopening rate):
+/// a few busy hours' worth, about 5 KB of state.
+pub const RECENT_CYCLES: usize = 100;
+
+/// The two door scores: cycle duration and reopening.
+pub const DOOR_SCORES: [&str; 2] = ["duration", "reopening"];
+
+/// Seed of the door calibration's bootstrap (fixed: a model reproduces from its data).
+const DOOR_BOOTSTRAP_SEED: u64 = 0x646f_6f72;
+
+/// Hours in a week: the bins of the trip rate.
+const HOURS_PER_WEEK: usize = 168;
+
+/// The door check's reference, learnt on healthy cycles.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct DoorReference {
+    /// Median healthy cycle duration (s).
+    pub median_s: f64,
+    /// σ̂ = 1.4826·MAD of the healthy durations (s), at least one step.
+    pub sigma_s: f64,
+    /// Healthy reopenings per cycle p0, at least [`REOPEN_RATE_FLOOR`].
+    pub reopen_rate: f64,
+    /// Healthy mean m of the clipped scores (duration, reopening).
+    pub score_mean: [f64; 2],
+    /// Healthy standard deviation s of the clipped scores (duration, reopening).
+    pub score_sd: [f64; 2],
+    /// w: healthy day-to-day wander of the daily mean score beyond its noise, per score, at
+    /// least [`DOOR_WANDER_FLOOR`].
+    pub wander: [f64; 2],
+    /// h per score and size (log-likelihood ratio units).
+    pub h: [[f64; N_SIZES]; 2],
+    /// Healthy door cycles scored.
+    pub cycles: u64,
+    /// Healthy door cycles per day of training.
+    pub cycles_per_day: f64,
+}
+
+/// Everything [`OperationTracker`] compares with, learnt in `fit`; models written before it
+/// existed have none, and get usage counts without outages or a door check.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct OperationReference {
+    /// Trips started per hour of each of the 168 hours of the week (bin ⌊t/3600⌋ mod 168 of
+    /// the data clock), from the training.
+    pub trips_per_hour: Vec<f64>,
+    /// Λ_max: expected trips of a silence that makes an outage.
+    pub outage_expected_trips: f64,
+    /// The largest Λ of a quiet span of the training.
+    pub quiet_max_expected_trips: f64,
+    /// Landing heights above the first (m), from the trips' distances; empty when the
+    /// training could not place them (then no stuck check).
+    pub landings_m: Vec<f64>,
+    /// The door check; `None` when the training had too few cycles.
+    pub door: Option<DoorReference>,
+}
+
+/// One completed door cycle.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct DoorCycle {
+    /// When the door started to open (s).
+    pub start: f64,
+    /// Open (signal 1) for this long (s).
+    pub duration_s: f64,
+    /// It opened within [`REOPEN_WINDOW_S`] of the previous close, no motion between.
+    pub reopening: bool,
+}
+
+/// Why a car is out of service.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum OutageKind {
+    /// Still at a landing through hours it normally travels.
+    OutOfService,
+    /// Stopped between two landings with the door closed.
+    StuckBetweenFloors,
+}
+
+/// An out-of-service period, open or closed.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Outage {
+    /// Which kind.
+    pub kind: OutageKind,
+    /// When the car last moved (s): the period's start.
+    #[serde(with = "exact")]
+    pub start: f64,
+    /// When the car moved again (s), NaN while open.
+    #[serde(with = "exact")]
+    pub end: f64,
+    /// When the monitor concluded it (s).
+    #[serde(with = "exact")]
+    pub detected_at: f64,
+    /// Floor indicator where it stood (NaN unknown).
+    #[serde(with = "exact")]
+    pub floor: f64,
+    /// The door was open when it was concluded.
+    pub door_open: bool,
+    /// Λ at detection: trips the training expected in that time.
+    #[serde(with = "exact")]
+    pub expected_trips: f64,
+}
+
+impl Outage {
+    /// For people: "stopped at floor 3, door open", "stuck between floors 7 and 8".
+    pub fn reason(&self) -> String {
+        let floor = if self.floor.is_finite() {
+            format!("floor {:.0}", self.floor)
+        } else {
+            "an unknown floor".into()
+        };
+        match self.kind {
+            OutageKind::OutOfService => format!(
+                "stopped at {floor}, door {}",
+                if self.door_open { "open" } else { "closed" }
+            ),
+            OutageKind::StuckBetweenFloors => {
+                format!("stuck between floors near {floor}, door closed")
+            }
+        }
+    }
+}
+
+/// What the tracker reports, one JSON line each in the events file (DATA.md §4).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub enum OperationEvent {
+    /// An outage was concluded (its start lies before).
+    OutageStart(Outage),
+    /// The car moved again.
+    OutageEnd(Outage),
+    /// The door check changed level: `true` raised the door advisory, `false` released it.
+    Door {
+        /// When (s).
+        #[serde(with = "exact")]
+        time: f64,
+        /// Raised or released.
+        raised: bool,
+        /// max G/h over the door CUSUMs.
+        #[serde(with = "exact")]
+        ratio: f64,
+        /// The score whose CUSUM leads ([`DOOR_SCORES`]).
+        lead: usize,
+        /// Median duration of the recent cycles ([`RECENT_CYCLES`]) (s).
+        #[serde(with = "exact")]
+        recent_median_s: f64,
+        /// Reopenings per cycle of the recent cycles.
+        #[serde(with = "exact")]
+        recent_reopen_rate: f64,
+        /// The reference's median (s).
+        #[serde(with = "exact")]
+        reference_median_s: f64,
+        /// The reference's reopening rate.
+        #[serde(with = "exact")]
+        reference_reopen_rate: f64,
+    },
+}
+
+impl OperationEvent {
+    /// The time of its line's `time` field: the outage's start (in both of its lines), the
+    /// door check's change.
+    pub fn time(&self) -> f64 {
+        match self {
+            OperationEvent::OutageStart(o) | OperationEvent::OutageEnd(o) => o.start,
+            OperationEvent::Door { time, .. } => *time,
+        }
+    }
+
+    /// One JSON object on one line (DATA.md §4): an outage line (`"kind": "outage"`, `time`
+    /// its start, `end` null while open) or a door level line (`"kind": "level"`, mode `door`).
+    pub fn to_json_line(&self) -> String {
+        let num = |x: f64| {
+            if x.is_finite() {
+                serde_json::json!(x)
+            } else {
+                serde_json::Value::Null
+            }
+        };
+        let fields: Vec<(&str, serde_json::Value)> = match self {
+            OperationEvent::OutageStart(o) | OperationEvent::OutageEnd(o) => vec![
+                ("time", num(o.start)),
+                ("kind", "outage".into()),
+                (
+                    "state",
+                    if matches!(self, OperationEvent::OutageStart(_)) {
+                        "start"
+                    } else {
+                        "end"
+                    }
+                    .into(),
+                ),
+                ("end", num(o.end)),
+                ("duration_s", num(o.end - o.start)),
+                ("detected_at", num(o.detected_at)),
+                (
+                    "outage",
+                    serde_json::to_value(o.kind).expect("a name always serialises"),
+                ),
+                ("reason", o.reason().into()),
+                ("expected_trips", num(o.expected_trips)),
+            ],
+            OperationEvent::Door {
+                time,
+                raised,
+                ratio,
+                lead,
+                recent_median_s,
+                recent_reopen_rate,
+                reference_median_s,
+                reference_reopen_rate,
+            } => vec![
+                ("time", num(*time)),
+                ("kind", "level".into()),
+                ("subsystem", "door".into()),
+                ("level", if *raised { "advisory" } else { "normal" }.into()),
+                ("mode", FaultMode::Door.as_str().into()),
+                ("cusum_ratio", num(*ratio)),
+                ("cusum_signature", DOOR_SCORES[*lead].into()),
+                ("door_cycle_median_s", num(*recent_median_s)),
+                ("door_reopen_rate", num(*recent_reopen_rate)),
+                ("reference_cycle_median_s", num(*reference_median_s)),
+                ("reference_reopen_rate", num(*reference_reopen_rate)),
+            ],
+        };
+        // Written in this order (a serde_json map would sort the keys): `time` first, as in
+        // every event line.
+        let body: Vec<String> = fields.iter().map(|(k, v)| format!("\"{k}\":{v}")).collect();
+        format!("{{{}}}", body.join(","))
+    }
+}
+
+/// Usage of one day (UTC day of the data clock: ⌊t/86400⌋).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct DayUsage {
+    /// ⌊t/86400⌋.
+    pub day: i64,
+    /// Seconds of data seen.
+    #[serde(with = "exact")]
+    pub observed_s: f64,
+    /// Seconds out of service.
+    #[serde(with = "exact")]
+    pub outage_s: f64,
+    /// Trips completed.
+    pub trips: u64,
+    /// Door cycles completed.
+    pub door_cycles: u64,
+    /// Of which reopenings.
+    pub reopenings: u64,
+    /// Sum of the scored cycles' durations (s) and their number, for the day's mean.
+    #[serde(with = "exact")]
+    pub door_s: f64,
+    /// Scored cycles.
+    pub scored_cycles: u64,
+}
+
+impl DayUsage {
+    /// 1 − outage/observed; NaN for a day without data.
+    pub fn availability(&self) -> f64 {
+        if self.observed_s > 0.0 {
+            (1.0 - self.outage_s / self.observed_s).clamp(0.0, 1.0)
+        } else {
+            f64::NAN
+        }
+    }
+
+    /// Mean duration of the scored door cycles (s), NaN without any.
+    pub fn mean_door_cycle_s(&self) -> f64 {
+        if self.scored_cycles > 0 {
+            self.door_s / self.scored_cycles as f64
+        } else {
+            f64::NAN
+        }
+    }
+}
+
+/// The door check's CUSUMs.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct DoorCheck {
+    /// G per score and size.
+    #[serde(with = "exact::array")]
+    pub g: [f64; 2 * N_SIZES],
+    /// The door advisory is raised.
+    pub raised: bool,
+}
+
+impl DoorCheck {
+    /// max G/h and the leading score.
+    pub fn ratio(&self, r: &DoorReference) -> (f64, usize) {
+        let mut best = (0.0, 0);
+        for k in 0..2 {
+            for j in 0..N_SIZES {
+                let q = self.g[k * N_SIZES + j] / r.h[k][j];
+                if q > best.0 {
+                    best = (q, k);
+                }
+            }
+        }
+        best
+    }
+
+    /// Takes one scored cycle's standardised scores; returns the new raised state when it
+    /// changed.
+    fn push(&mut self, r: &DoorReference, z: [f64; 2]) -> Option<bool> {
+        for (k, zk) in z.iter().enumerate() {
+            for (j, nu) in SIZES.iter().enumerate() {
+                let h = r.h[k][j];
+                let g = &mut self.g[k * N_SIZES + j];
+                *g = (*g + gaussian_llr(*nu, *zk)).clamp(0.0, 2.0 * h);
+            }
+        }
+        let (ratio, _) = self.ratio(r);
+        let was = self.raised;
+        if !self.raised && ratio >= 1.0 {
+            self.raised = true;
+        } else if self.raised && ratio < 0.5 {
+            self.raised = false;
+        }
+        (self.raised != was).then_some(self.raised)
+    }
+}
+
+/// The clipped raw scores of a cycle (duration, reopening) against `r`.
+fn raw_scores(r: &DoorReference, c: &DoorCycle) -> [f64; 2] {
+    let p = r.reopen_rate;
+    let x = if c.reopening { 1.0 } else { 0.0 };
+    [
+        ((c.duration_s - r.median_s) / r.sigma_s).clamp(-CLIP, CLIP),
+        ((x - p) / (p * (1.0 - p)).sqrt()).clamp(-CLIP, CLIP),
+    ]
+}
+
+/// The standardised scores z of a cycle, clipped to ±[`CLIP`] once more (a reopening
+/// standardised by a small p0's spread would otherwise count as ten cycles' evidence).
+fn standardised(r: &DoorReference, c: &DoorCycle) -> [f64; 2] {
+    let u = raw_scores(r, c);
+    [0, 1].map(|k| ((u[k] - r.score_mean[k]) / r.score_sd[k]).clamp(-CLIP, CLIP))
+}
+
+/// What a cycle adds to the CUSUMs: z less the day-to-day allowance [`DOOR_WANDER_K`]·w.
+fn scores(r: &DoorReference, c: &DoorCycle) -> [f64; 2] {
+    let z = standardised(r, c);
+    [0, 1].map(|k| z[k] - DOOR_WANDER_K * r.wander[k])
+}
+
+fn hour_bin(t: f64) -> usize {
+    ((t / 3600.0).floor().rem_euclid(HOURS_PER_WEEK as f64)) as usize % HOURS_PER_WEEK
+}
+
+fn day_of(t: f64) -> i64 {
+    (t / 86_400.0).floor() as i64
+}
+
+/// The streaming tracker: door cycles, outages, daily usage and the door check. Saved and
+/// resumed inside the monitor's state.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct OperationTracker {
+    #[serde(with = "exact")]
+    door_prev: f64,
+    #[serde(with = "exact")]
+    open_since: f64,
+    #[serde(with = "exact")]
+    last_close: f64,
+    moved_since_close: bool,
+    /// Time of the last moving sample, or of the first sample (s).
+    #[serde(with = "exact")]
+    rest_since: f64,
+    /// Λ since `rest_since`.
+    #[serde(with = "exact")]
+    expected: f64,
+    /// Seconds at rest since `rest_since`, per day, until an outage claims them.
+    pending: Vec<(i64, f64)>,
+    /// A trip that ended between landings: its end time (s).
+    #[serde(with = "exact")]
+    between_since: f64,
+    /// The outage under way.
+    pub open: Option<Outage>,
+    /// The last outage that ended.
+    pub last_outage: Option<Outage>,
+    /// Outages concluded.
+    pub outages: u64,
+    /// The door check.
+    pub door: DoorCheck,
+    /// The last [`RECENT_CYCLES`] scored cycles, for the figures an event quotes.
+    recent: VecDeque<DoorCycle>,
+    /// Usage per day, the last [`USAGE_DAYS`].
+    pub days: VecDeque<DayUsage>,
+    /// Events not yet handed out (at most one leaves per sample).
+    queue: VecDeque<OperationEvent>,
+}
+
+impl Default for OperationTracker {
+    fn default() -> Self {
+        OperationTracker::new()
+    }
+}
+
+impl OperationTracker {
+    /// Nothing seen yet.
+    pub fn new() -> Self {
+        OperationTracker {
+            door_prev: f64::NAN,
+            open_since: f64::NAN,
+            last_close: f64::NAN,
+            moved_since_close: false,
+            rest_since: f64::NAN,
+            expected: 0.0,
+            pending: Vec::new(),
+            between_since: f64::NAN,
+            open: None,
+            last_outage: None,
+            outages: 0,
+            door: DoorCheck::default(),
+            recent: VecDeque::new(),
+            days: VecDeque::new(),
+            queue: VecDeque::new(),
+        }
+    }
+
+    fn day_mut(&mut self, t: f64) -> &mut DayUsage {
+        let d = day_of(t);
+        if self.days.back().map_or(true, |u| u.day < d) {
+            self.days.push_back(DayUsage {
+                day: d,
+                ..DayUsage::default()
+            });
+            while self.days.len() > USAGE_DAYS {
+                self.days.pop_front();
+            }
+        }
+        // A day before the last one kept (input never goes back; the guard keeps it safe).
+        let i = self.days.iter().rposition(|u| u.day <= d).unwrap_or(0);
+        &mut self.days[i]
+    }
+
+    /// Feeds one aligned sample of step `step_s`; returns the door cycle it completed.
+    /// `thr` is the motion threshold (m/s); `r` the reference (None: usage counts only).
+    pub fn push(
+        &mut self,
+        x: &Sample,
+        step_s: f64,
+        thr: f64,
+        r: Option<&OperationReference>,
+    ) -> Option<DoorCycle> {
+        let t = x.time;
+        if !t.is_finite() {
+            return None;
+        }
+        self.day_mut(t).observed_s += step_s;
+        if self.rest_since.is_nan() {
+            self.rest_since = t;
+        }
+        let moving = x.speed.is_finite() && x.speed > thr;
+        let at_rest = x.speed.is_finite() && !moving;
+        if moving {
+            self.moved_since_close = true;
+            self.between_since = f64::NAN;
+            if let Some(mut o) = self.open.take() {
+                o.end = t;
+                self.queue.push_back(OperationEvent::OutageEnd(o));
+                self.last_outage = Some(o);
+            }
+            self.rest_since = t;
+            self.expected = 0.0;
+            self.pending.clear();
+        } else if self.open.is_some() {
+            self.day_mut(t).outage_s += step_s;
+        } else if at_rest {
+            if let Some(r) = r {
+                self.expected +=
+                    r.trips_per_hour.get(hour_bin(t)).copied().unwrap_or(0.0) * step_s / 3600.0;
+            }
+            let d = day_of(t);
+            match self.pending.last_mut() {
+                Some((day, s)) if *day == d => *s += step_s,
+                _ => self.pending.push((d, step_s)),
+            }
+            if let Some(r) = r {
+                self.check_outage(x, r);
+            }
+        }
+        let cycle = self.door_step(x);
+        if let (Some(c), Some(dr)) = (cycle, r.and_then(|r| r.door.as_ref())) {
+            let backlog = self
+                .last_outage
+                .is_some_and(|o| c.start - o.end < OUTAGE_BACKLOG_S);
+            if c.duration_s <= DOOR_CYCLE_MAX_S && self.open.is_none() && !backlog {
+                self.score_cycle(&c, dr);
+            }
+        }
+        cycle
+    }
+
+    /// Opens an outage when the silence is long and unlikely enough, or the car stands
+    /// between landings.
+    fn check_outage(&mut self, x: &Sample, r: &OperationReference) {
+        let t = x.time;
+        let door_closed = x.door == 0.0;
+        let stuck = self.between_since.is_finite()
+            && door_closed
+            && t - self.between_since >= STUCK_LIMIT_S;
+        let quiet = self.expected >= r.outage_expected_trips && t - self.rest_since >= OUTAGE_MIN_S;
+        if !(stuck || quiet) {
+            return;
+        }
+        let (kind, start) = if stuck {
+            (
+                OutageKind::StuckBetweenFloors,
+                self.between_since.max(self.rest_since),
+            )
+        } else {
+            (OutageKind::OutOfService, self.rest_since)
+        };
+        let o = Outage {
+            kind,
+            start,
+            end: f64::NAN,
+            detected_at: t,
+            floor: x.floor,
+            door_open: x.door == 1.0,
+            expected_trips: self.expected,
+        };
+        for (day, s) in std::mem::take(&mut self.pending) {
+            if let Some(u) = self.days.iter_mut().find(|u| u.day == day) {
+                u.outage_s += s;
+            }
+        }
+        self.open = Some(o);
+        self.outages = self.outages.saturating_add(1);
+        self.queue.push_back(OperationEvent::OutageStart(o));
+    }
+
+    /// Door cycle bookkeeping at one sample.
+    fn door_step(&mut self, x: &Sample) -> Option<DoorCycle> {
+        let t = x.time;
+        let d = x.door;
+        let mut out = None;
+        if d.is_nan() {
+            self.open_since = f64::NAN;
+        } else if self.door_prev == 0.0 && d != 0.0 {
+            self.open_since = t;
+        } else if self.door_prev != 0.0 && !self.door_prev.is_nan() && d == 0.0 {
+            if self.open_since.is_finite() {
+                let reopening = self.last_close.is_finite()
+                    && self.open_since - self.last_close <= REOPEN_WINDOW_S
+                    && !self.moved_since_close;
+                let c = DoorCycle {
+                    start: self.open_since,
+                    duration_s: t - self.open_since,
+                    reopening,
+                };
+                let u = self.day_mut(t);
+                u.door_cycles += 1;
+                u.reopenings += u64::from(reopening);
+                if c.duration_s <= DOOR_CYCLE_MAX_S {
+                    u.door_s += c.duration_s;
+                    u.scored_cycles += 1;
+                    self.recent.push_back(c);
+                    while self.recent.len() > RECENT_CYCLES {
+                        self.recent.pop_front();
+                    }
+                }
+                out = Some(c);
+            }
+            self.open_since = f64::NAN;
+            self.last_close = t;
+            self.moved_since_close = false;
+        }
+        self.door_prev = d;
+        out
+    }
+
+    fn score_cycle(&mut self, c: &DoorCycle, r: &DoorReference) {
+        let Some(raised) = self.door.push(r, scores(r, c)) else {
+            return;
+        };
+        let (ratio, lead) = self.door.ratio(r);
+        let durations: Vec<f64> = self.recent.iter().map(|c| c.duration_s).collect();
+        let n = self.recent.len().max(1) as f64;
+        let reopen = self.recent.iter().filter(|c| c.reopening).count() as f64 / n;
+        self.queue.push_back(OperationEvent::Door {
+            time: c.start + c.duration_s,
+            raised,
+            ratio,
+            lead,
+            recent_median_s: median(&durations),
+            recent_reopen_rate: reopen,
+            reference_median_s: r.median_s,
+            reference_reopen_rate: r.reopen_rate,
+        });
+    }
+
+    /// A trip the features stage reported: counted for the day, and checked for an end
+    /// between landings.
+    pub fn trip(&mut self, t: &Trip, r: Option<&OperationReference>) {
+        self.day_mut(t.end_time).trips += 1;
+        self.between_since = f64::NAN;
+        let Some(r) = r else { return };
+        if let Some(off) = level_offset(&r.landings_m, t) {
+            if off > LEVEL_TOLERANCE_M {
+                self.between_since = t.end_time;
+            }
+        }
+    }
+
+    /// True while an outage is under way or its backlog is served: from its start to
+    /// [`OUTAGE_BACKLOG_S`] after its end, `t` (s) in it.
+    pub fn serving_backlog(&self, t: f64) -> bool {
+        self.open.is_some()
+            || self
+                .last_outage
+                .is_some_and(|o| t - o.end < OUTAGE_BACKLOG_S)
+    }
+
+    /// The next event, at most one per call (the monitor takes one per sample).
+    pub fn take_event(&mut self) -> Option<OperationEvent> {
+        self.queue.pop_front()
+    }
+
+    /// Availability over the last `n` days kept (observed-time weighted), NaN without data.
+    pub fn availability(&self, n: usize) -> f64 {
+        let (mut obs, mut out) = (0.0, 0.0);
+        for u in self.days.iter().rev().take(n) {
+            obs += u.observed_s;
+            out += u.outage_s;
+        }
+        if obs > 0.0 {
+            (1.0 - out / obs).clamp(0.0, 1.0)
+        } else {
+            f64::NAN
+        }
+    }
+
+    /// The recent cycles ([`RECENT_CYCLES`]): median duration (s), reopenings per cycle and
+    /// their number.
+    pub fn recent_doors(&self) -> (f64, f64, usize) {
+        let d: Vec<f64> = self.recent.iter().map(|c| c.duration_s).collect();
+        let n = self.recent.len();
+        let r = self.recent.iter().filter(|c| c.reopening).count() as f64 / n.max(1) as f64;
+        (median(&d), if n > 0 { r } else { f64::NAN }, n)
+    }
+}
+
+/// Distance (m) from where trip `t` ended to the nearest landing, the trip's start taken as
+/// level with its `from_floor`; None when the start floor or the landings are unknown.
+pub fn level_offset(landings_m: &[f64], t: &Trip) -> Option<f64> {
+    if !t.from_floor.is_finite() || t.from_floor < 1.0 || !t.distance_m.is_finite() {
+        return None;
+    }
+    let from = landings_m.get(t.from_floor as usize - 1)?;
+    let x = from + f64::from(t.direction) * t.distance_m;
+    landings_m
+        .iter()
+        .map(|h| (h - x).abs())
+        .min_by(f64::total_cmp)
+}
+
+/// Landing heights above the first from the trips' floors and distances: h[to] − h[from] =
+/// direction·distance, solved by medians in turn (Gauss-Seidel), robust to odd trips. Empty
+/// when some landing was never reached.
+pub fn learn_landings(trips: &[Trip], floors: usize) -> Vec<f64> {
+    let floor_of = |f: f64| {
+        (f.is_finite() && f >= 1.0 && f <= floors as f64 && f.fract() == 0.0)
+            .then(|| f as usize - 1)
+    };
+    let obs: Vec<(usize, usize, f64)> = trips
+        .iter()
+        .filter_map(|t| {
+            let (a, b) = (floor_of(t.from_floor)?, floor_of(t.to_floor)?);
+            (a != b && t.distance_m.is_finite())
+                .then(|| (a, b, f64::from(t.direction) * t.distance_m))
+        })
+        .collect();
+    let mut seen = vec![false; floors];
+    for &(a, b, _) in &obs {
+        seen[a] = true;
+        seen[b] = true;
+    }
+    if floors < 2 || seen.iter().any(|s| !s) {
+        return Vec::new();
+    }
+    // Start from the mean storey of the trips, then refine each landing by the median of
+    // what every trip touching it says, a few dozen rounds (converges in a handful).
+    let storey = {
+        let per: Vec<f64> = obs
+            .iter()
+            .map(|&(a, b, d)| d / (b as f64 - a as f64))
+            .collect();
+        median(&per)
+    };
+    let mut h: Vec<f64> = (0..floors).map(|f| f as f64 * storey).collect();
+    let mut votes: Vec<Vec<f64>> = vec![Vec::new(); floors];
+    for _ in 0..30 {
+        for v in &mut votes {
+            v.clear();
+        }
+        for &(a, b, d) in &obs {
+            votes[b].push(h[a] + d);
+            votes[a].push(h[b] - d);
+        }
+        for f in 1..floors {
+            h[f] = median(&votes[f]);
+        }
+    }
+    h
+}
+
+impl OperationReference {
+    /// Learns the reference on a healthy history: its samples (step `step_s`, motion
+    /// threshold `thr`), the trips the features stage found in it, `floors` landings, and
+    /// the alarm budget `target` (false door advisories per year).
+    pub fn learn(
+        samples: &[Sample],
+        trips: &[Trip],
+        step_s: f64,
+        thr: f64,
+        floors: usize,
+        target: f64,
+    ) -> OperationReference {
+        // Trip rate per hour of the week, over the hours with speed data.
+        let mut hours = [0.0f64; HOURS_PER_WEEK];
+        let mut starts = [0.0f64; HOURS_PER_WEEK];
+        for x in samples {
+            if x.time.is_finite() && x.speed.is_finite() {
+                hours[hour_bin(x.time)] += step_s / 3600.0;
+            }
+        }
+        for t in trips {
+            starts[hour_bin(t.start_time)] += 1.0;
+        }
+        // An hour of the week seen for at least a quarter of an hour has its own rate; the
+        // others take their hour of day's pooled rate (or 0 when that was never seen).
+        let seen = |b: usize| hours[b] >= 0.25;
+        let mut by_day = [(0.0f64, 0.0f64); 24];
+        for b in (0..HOURS_PER_WEEK).filter(|&b| seen(b)) {
+            by_day[b % 24].0 += starts[b];
+            by_day[b % 24].1 += hours[b];
+        }
+        let trips_per_hour: Vec<f64> = (0..HOURS_PER_WEEK)
+            .map(|b| {
+                if seen(b) {
+                    starts[b] / hours[b]
+                } else {
+                    let (n, h) = by_day[b % 24];
+                    if h > 0.0 {
+                        n / h
+                    } else {
+                        0.0
+                    }
+                }
+            })
+            .collect();
+        // The quietest healthy spans: run the tracker with the rates and no outage threshold.
+        let mut probe = OperationReference {
+            trips_per_hour,
+            outage_expected_trips: f64::INFINITY,
+            quiet_max_expected_trips: 0.0,
+            landings_m: Vec::new(),
+            door: None,
+        };
+        let mut tr = OperationTracker::new();
+        let mut quiet = 0.0f64;
+        let mut cycles = Vec::new();
+        for x in samples {
+            if let Some(c) = tr.push(x, step_s, thr, Some(&probe)) {
+                cycles.push(c);
+            }
+            quiet = quiet.max(tr.expected);
+        }
+        probe.quiet_max_expected_trips = quiet;
+        probe.outage_expected_trips = (OUTAGE_MARGIN * quiet).max(OUTAGE_MIN_EXPECTED_TRIPS);
+        probe.landings_m = learn_landings(trips, floors);
+        let span_days = samples.len() as f64 * step_s / 86_400.0;
+        probe.door = DoorReference::learn(&cycles, step_s, span_days, target);
+        probe
+    }
+
+    /// Checks a hand-edited model.
+    ///
+    /// # Errors
+    /// A message naming the first field out of range.
+    pub fn validate(&self) -> std::result::Result<(), String> {
+        let check = crate::error::check_range;
+        if self.trips_per_hour.len() != HOURS_PER_WEEK {
+            return Err(format!(
+                "operation.trips_per_hour has {} values, expected {HOURS_PER_WEEK}",
+                self.trips_per_hour.len()
+            ));
+        }
+        for &r in &self.trips_per_hour {
+            check("operation.trips_per_hour", r, 0.0, 1e5)?;
+        }
+        check(
+            "operation.outage_expected_trips",
+            self.outage_expected_trips,
+            1.0,
+            1e9,
+        )?;
+        for &h in &self.landings_m {
+            check("operation.landings_m", h, -1e4, 1e4)?;
+        }
+        if let Some(d) = &self.door {
+            check("operation.door.median_s", d.median_s, 0.0, 1e4)?;
+            check("operation.door.sigma_s", d.sigma_s, 1e-6, 1e4)?;
+            check(
+                "operation.door.reopen_rate",
+                d.reopen_rate,
+                REOPEN_RATE_FLOOR,
+                0.99,
+            )?;
+            for k in 0..2 {
+                check("operation.door.wander", d.wander[k], 0.0, CLIP)?;
+                check("operation.door.score_mean", d.score_mean[k], -CLIP, CLIP)?;
+                check("operation.door.score_sd", d.score_sd[k], 1e-6, 10.0)?;
+                for j in 0..N_SIZES {
+                    check("operation.door.h", d.h[k][j], 1e-3, 1e9)?;
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+impl DoorReference {
+    /// The door check's reference from healthy `cycles` over `span_days` days at step
+    /// `step_s`; `None` with fewer than [`DOOR_MIN_CYCLES`] scored cycles.
+    pub fn learn(
+        cycles: &[DoorCycle],
+        step_s: f64,
+        span_days: f64,
+        target: f64,
+    ) -> Option<DoorReference> {
+        let scored: Vec<DoorCycle> = cycles
+            .iter()
+            .copied()
+            .filter(|c| c.duration_s <= DOOR_CYCLE_MAX_S)
+            .collect();
+        if scored.len() < DOOR_MIN_CYCLES || span_days.is_nan() || span_days <= 0.0 {
+            return None;
+        }
+        let d: Vec<f64> = scored.iter().map(|c| c.duration_s).collect();
+        let reopen = scored.iter().filter(|c| c.reopening).count() as f64 / scored.len() as f64;
+        let mut r = DoorReference {
+            median_s: median(&d),
+            sigma_s: robust_sigma(d.iter().copied()).max(step_s),
+            reopen_rate: reopen.max(REOPEN_RATE_FLOOR),
+            score_mean: [0.0; 2],
+            score_sd: [1.0; 2],
+            wander: [DOOR_WANDER_FLOOR; 2],
+            h: [[1.0; N_SIZES]; 2],
+            cycles: scored.len() as u64,
+            cycles_per_day: scored.len() as f64 / span_days,
+        };
+        let raw: Vec<[f64; 2]> = scored.iter().map(|c| raw_scores(&r, c)).collect();
+        for k in 0..2 {
+            let n = raw.len() as f64;
+            let m = raw.iter().map(|u| u[k]).sum::<f64>() / n;
+            let v = raw.iter().map(|u| (u[k] - m) * (u[k] - m)).sum::<f64>() / n;
+            r.score_mean[k] = m;
+            // A score that never varied (no reopening seen) is scaled by its Bernoulli sd at p0.
+            r.score_sd[k] = if v > 1e-12 { v.sqrt() } else { 1.0 };
+        }
+        if reopen < REOPEN_RATE_FLOOR {
+            // At the floor the score's healthy mean and sd are those of a Bernoulli(p0) draw,
+            // not the (lower) ones of the training: a conservative reference.
+            let p = r.reopen_rate;
+            let hi = ((1.0 - p) / (p * (1.0 - p)).sqrt()).min(CLIP);
+            let lo = ((-p) / (p * (1.0 - p)).sqrt()).max(-CLIP);
+            let m = p * hi + (1.0 - p) * lo;
+            r.score_mean[1] = m;
+            r.score_sd[1] = (p * (hi - m).powi(2) + (1.0 - p) * (lo - m).powi(2)).sqrt();
+        }
+        // Wander: the spread of the daily mean z beyond what each day's count explains.
+        let mut by_day: Vec<(i64, [f64; 2], f64)> = Vec::new();
+        for c in &scored {
+            let z = standardised(&r, c);
+            let d = day_of(c.start);
+            match by_day.last_mut() {
+                Some((day, sum, n)) if *day == d => {
+                    sum[0] += z[0];
+                    sum[1] += z[1];
+                    *n += 1.0;
+                }
+                _ => by_day.push((d, z, 1.0)),
+            }
+        }
+        let full: Vec<&(i64, [f64; 2], f64)> = by_day
+            .iter()
+            .filter(|d| d.2 >= 0.25 * r.cycles_per_day)
+            .collect();
+        if full.len() >= 3 {
+            let nd = full.len() as f64;
+            for k in 0..2 {
+                let means: Vec<f64> = full.iter().map(|d| d.1[k] / d.2).collect();
+                let m = means.iter().sum::<f64>() / nd;
+                let var = means.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / (nd - 1.0);
+                let noise = full.iter().map(|d| 1.0 / d.2).sum::<f64>() / nd;
+                r.wander[k] = (var - noise).max(0.0).sqrt().max(DOOR_WANDER_FLOOR);
+            }
+        }
+        // Thresholds: the highest G over bootstrapped healthy years (day-long blocks of the
+        // training's cycles), never below Lorden's bound for four statistics.
+        let per_year = r.cycles_per_day * 365.25;
+        let lorden = (4.0 * per_year / target).ln().max(1.0);
+        let total = (DOOR_BOOTSTRAP_YEARS / target).clamp(1.0, 100.0) * per_year;
+        let z: Vec<[f64; 2]> = scored.iter().map(|c| scores(&r, c)).collect();
+        let mut rng = Rng::new(DOOR_BOOTSTRAP_SEED);
+        let mut g = [0.0f64; 2 * N_SIZES];
+        let mut max_g = [0.0f64; 2 * N_SIZES];
+        let ends = |first: usize, i: usize| scored[i].start - scored[first].start >= 86_400.0;
+        moving_blocks(
+            &mut rng,
+            z.len(),
+            BlockStart::Anywhere,
+            total as usize,
+            ends,
+            |i| {
+                for k in 0..2 {
+                    for (j, nu) in SIZES.iter().enumerate() {
+                        let gk = &mut g[k * N_SIZES + j];
+                        *gk = (*gk + gaussian_llr(*nu, z[i][k])).max(0.0);
+                        max_g[k * N_SIZES + j] = max_g[k * N_SIZES + j].max(*gk);
+                    }
+                }
+            },
+        );
+        for k in 0..2 {
+            for j in 0..N_SIZES {
+                r.h[k][j] = max_g[k * N_SIZES + j].max(lorden);
+            }
+        }
+        Some(r)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample(t: f64, speed: f64, door: f64, floor: f64) -> Sample {
+        Sample {
+            time: t,
+            speed,
+            direction: 0.0,
+            voltage: 10.0,
+            load: 0.0,
+            door,
+            floor,
+            current: f64::NAN,
+        }
+    }
+
+    #[test]
+    fn door_cycles_and_reopenings_are_counted() {
+        let mut tr = OperationTracker::new();
+        let mut cycles = Vec::new();
+        // closed, open 10 s, closed 2 s, open 4 s (a reopening), closed 20 s, move, open 8 s.
+        let pattern: Vec<(f64, f64)> = (0..60)
+            .map(|i| {
+                let door = matches!(i, 5..=14 | 17..=20 | 45..=52) as u8;
+                let speed = if (30..=40).contains(&i) { 1.0 } else { 0.0 };
+                (speed, f64::from(door))
+            })
+            .collect();
+        for (i, (v, d)) in pattern.iter().enumerate() {
+            if let Some(c) = tr.push(&sample(i as f64, *v, *d, 1.0), 1.0, 0.05, None) {
+                cycles.push(c);
+            }
+        }
+        assert_eq!(cycles.len(), 3, "{cycles:?}");
+        assert_eq!(cycles[0].duration_s, 10.0);
+        assert!(!cycles[0].reopening && cycles[1].reopening && !cycles[2].reopening);
+        let u = tr.days.back().unwrap();
+        assert_eq!((u.door_cycles, u.reopenings), (3, 1));
+        assert_eq!(u.availability(), 1.0);
+    }
+
+    #[test]
+    fn landings_come_back_from_trips() {
+        let h = [0.0, 4.2, 7.5, 10.9, 14.0];
+        let mut trips = Vec::new();
+        for (k, (a, b)) in [
+            (0, 1),
+            (1, 3),
+            (3, 0),
+            (0, 4),
+            (4, 2),
+            (2, 0),
+            (0, 3),
+            (1, 4),
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            let d: f64 = h[b] - h[a];
+            trips.push(Trip {
+                index: k as u32,
+                start_time: 0.0,
+                end_time: 1.0,
+                direction: if d > 0.0 { 1 } else { -1 },
+                from_floor: (a + 1) as f64,
+                to_floor: (b + 1) as f64,
+                load_ratio: 0.0,
+                peak_speed: 1.0,
+                distance_m: d.abs() + 0.01,
+                samples: 5,
+            });
+        }
+        let got = learn_landings(&trips, 5);
+        for f in 0..5 {
+            assert!((got[f] - h[f]).abs() < 0.05, "{got:?}");
+        }
+        let mut stuck = trips[1];
+        stuck.distance_m = 5.0; // from landing 2 at 4.2 m up 5 m: 9.2 m, 1.7 m from landing 4
+        assert!(level_offset(&got, &stuck).unwrap() > LEVEL_TOLERANCE_M);
+        assert!(level_offset(&got, &trips[1]).unwrap() < LEVEL_TOLERANCE_M);
+        assert!(
+            learn_landings(&trips[..2], 5).is_empty(),
+            "landing 5 never reached"
+        );
+    }
+
+    #[test]
+    fn a_silence_through_busy_hours_is_an_outage_and_ends_with_motion() {
+        let r = OperationReference {
+            trips_per_hour: vec![30.0; HOURS_PER_WEEK],
+            outage_expected_trips: 20.0,
+            quiet_max_expected_trips: 10.0,
+            landings_m: Vec::new(),
+            door: None,
+        };
+        let mut tr = OperationTracker::new();
+        let mut events = Vec::new();
+        for i in 0..7200 {
+            let t = f64::from(i);
+            let v = if i == 100 || i == 5000 { 1.0 } else { 0.0 };
+            tr.push(&sample(t, v, 1.0, 3.0), 1.0, 0.05, Some(&r));
+            while let Some(e) = tr.take_event() {
+                events.push(e);
+            }
+        }
+        // 20 expected trips at 30/h: 40 min after the car stopped at 100 s.
+        let OperationEvent::OutageStart(o) = events[0] else {
+            panic!("{events:?}")
+        };
+        assert_eq!(o.start, 100.0);
+        assert!((o.detected_at - 2500.0).abs() <= 1.0, "{o:?}");
+        assert_eq!(o.reason(), "stopped at floor 3, door open");
+        let OperationEvent::OutageEnd(e) = events[1] else {
+            panic!("{events:?}")
+        };
+        assert_eq!(e.end, 5000.0);
+        let u = tr.days.back().unwrap();
+        assert!((u.outage_s - 4899.0).abs() <= 1.0, "{u:?}");
+        assert!(events[1].to_json_line().contains(r#""kind":"outage""#));
+        // Without a reference: usage only, no outage.
+        let mut bare = OperationTracker::new();
+        for i in 0..7200 {
+            bare.push(&sample(f64::from(i), 0.0, 0.0, 1.0), 1.0, 0.05, None);
+        }
+        assert!(bare.take_event().is_none() && bare.availability(1) == 1.0);
+    }
+
+    #[test]
+    fn door_check_rises_on_slow_cycles_and_not_on_healthy_ones() {
+        let mut rng = Rng::new(3);
+        let healthy: Vec<DoorCycle> = (0..3000)
+            .map(|i| DoorCycle {
+                start: f64::from(i) * 120.0,
+                duration_s: (10.0 + 2.0 * rng.normal()).round().max(4.0),
+                reopening: rng.chance(0.03),
+            })
+            .collect();
+        let r = DoorReference::learn(&healthy, 1.0, 3000.0 * 120.0 / 86_400.0, 1.0).unwrap();
+        assert!((r.median_s - 10.0).abs() <= 1.0 && r.h[0][0] > 5.0, "{r:?}");
+        let mut check = DoorCheck::default();
+        assert!(healthy
+            .iter()
+            .all(|c| check.push(&r, scores(&r, c)).is_none()));
+        let slow = DoorCycle {
+            start: 0.0,
+            duration_s: 13.0,
+            reopening: false,
+        };
+        let n = (0..2000)
+            .position(|_| check.push(&r, scores(&r, &slow)) == Some(true))
+            .expect("a door 3 s slower raises the advisory");
+        assert!(n < 500, "{n} cycles");
+        assert!(DoorReference::learn(&healthy[..10], 1.0, 1.0, 1.0).is_none());
+    }
+}

@@ -1,4 +1,4 @@
-//! The HTTP API of `/work/plan/serve-contract.md` (README, *Service*): routes, auth, bounds,
+//! The HTTP API (README, *Service*; `openapi.json`): routes, auth, bounds,
 //! JSON errors.
 //!
 //! ```text
@@ -24,9 +24,13 @@ use axum::response::{IntoResponse, Response};
 use axum::routing::{get, post};
 use axum::{Json, Router};
 use serde::Deserialize;
-use serde_json::{json, Map, Value};
+use serde_json::{json, Value};
 
-use crate::config::{check_info, one_line, valid_id, ElevatorInfo};
+use crate::config::{check_info, one_line, ElevatorInfo};
+pub use crate::error::ApiError;
+use crate::error::{check_id, db};
+use crate::ingest::{full, ingest};
+use crate::registry::{time_text, UNIX_CLOCK_FROM_S};
 use crate::worker::Snapshot;
 use crate::{log, registry, store, Shared};
 
@@ -41,39 +45,6 @@ const STYLE_CSS: &str = include_str!("../assets/style.css");
 /// Default and largest `limit` of the row and event lists.
 const DEFAULT_LIMIT: usize = 10_000;
 const MAX_LIMIT: usize = 100_000;
-
-/// Data-clock times above this are Unix time (2001-09-09 onwards), as the library reads them:
-/// only those get an RFC 3339 text.
-const UNIX_CLOCK_FROM_S: f64 = 1e8;
-
-/// An error answer: status and one line.
-#[derive(Debug)]
-pub struct ApiError(pub StatusCode, pub String);
-
-impl ApiError {
-    pub(crate) fn bad(msg: impl Into<String>) -> Self {
-        ApiError(StatusCode::BAD_REQUEST, msg.into())
-    }
-    pub(crate) fn not_found(msg: impl Into<String>) -> Self {
-        ApiError(StatusCode::NOT_FOUND, msg.into())
-    }
-    pub(crate) fn internal(msg: impl Into<String>) -> Self {
-        ApiError(StatusCode::INTERNAL_SERVER_ERROR, msg.into())
-    }
-}
-
-impl IntoResponse for ApiError {
-    fn into_response(self) -> Response {
-        if self.0.is_server_error() {
-            log(
-                "error",
-                &format!("{}: {}", self.0.as_u16(), one_line(&self.1)),
-            );
-        }
-        let body = json!({ "error": one_line(&self.1) });
-        (self.0, Json(body)).into_response()
-    }
-}
 
 type ApiResult = Result<Response, ApiError>;
 
@@ -198,17 +169,6 @@ fn check_read(s: &Shared, headers: &HeaderMap) -> Result<(), ApiError> {
     }
 }
 
-fn check_id(id: &str) -> Result<(), ApiError> {
-    if valid_id(id) {
-        Ok(())
-    } else {
-        Err(ApiError::bad(format!(
-            "elevator id `{}` is not [A-Za-z0-9_-]{{1,64}}",
-            one_line(id)
-        )))
-    }
-}
-
 fn body_of(body: Result<Bytes, BytesRejection>) -> Result<Bytes, ApiError> {
     body.map_err(|r| {
         let status = r.status();
@@ -219,10 +179,6 @@ fn body_of(body: Result<Bytes, BytesRejection>) -> Result<Bytes, ApiError> {
         };
         ApiError(status, why)
     })
-}
-
-fn db(e: impl std::fmt::Display) -> ApiError {
-    ApiError::internal(format!("database: {e}"))
 }
 
 /// The stored description of `id`, 404 when unknown.
@@ -236,19 +192,6 @@ fn info_of(conn: &rusqlite::Connection, id: &str) -> Result<ElevatorInfo, ApiErr
         .map_err(db)?;
     let text = text.ok_or_else(|| ApiError::not_found(format!("no elevator `{id}`")))?;
     serde_json::from_str(&text).map_err(db)
-}
-
-/// RFC 3339 text of a data-clock time at the elevator's offset, when the clock is Unix time.
-pub fn time_text(t: f64, info: &ElevatorInfo) -> Value {
-    if !(t.is_finite() && t > UNIX_CLOCK_FROM_S) {
-        return Value::Null;
-    }
-    let offset = info
-        .timezone
-        .as_deref()
-        .and_then(|tz| crate::config::utc_offset(tz).ok())
-        .unwrap_or(0);
-    Value::String(liftwatch::ingest::time::format_rfc3339(t, offset))
 }
 
 fn num(x: f64) -> Value {
@@ -313,7 +256,7 @@ fn open_events(
     conn: &rusqlite::Connection,
 ) -> Result<std::collections::HashMap<String, i64>, ApiError> {
     let mut st = conn
-        .prepare("SELECT elevator, COUNT(*) FROM events WHERE label IS NULL AND level != 'normal' GROUP BY elevator")
+        .prepare("SELECT elevator, COUNT(*) FROM events WHERE label IS NULL AND level IN ('advisory', 'alarm') GROUP BY elevator")
         .map_err(db)?;
     let rows = st
         .query_map([], |r| Ok((r.get(0)?, r.get(1)?)))
@@ -459,16 +402,6 @@ async fn put_elevator(
     Ok(Json(json!({"id": id, "ok": true})).into_response())
 }
 
-fn full(s: &Shared) -> ApiError {
-    ApiError(
-        StatusCode::CONFLICT,
-        format!(
-            "this instance holds its maximum of {} elevators (max_elevators)",
-            s.cfg.max_elevators
-        ),
-    )
-}
-
 async fn telemetry(
     State(s): State<Arc<Shared>>,
     Path(id): Path<String>,
@@ -490,62 +423,6 @@ async fn telemetry(
         .await
         .map_err(|e| refused(&s, e))?;
     Ok(Json(receipt).into_response())
-}
-
-/// Takes one batch of raw telemetry for elevator `id`, whatever carried it (HTTP, MQTT):
-/// parses it with the library's row parser (bad rows counted and skipped), stores the good rows
-/// as one batch, committed, and wakes the worker. Returns the receipt the HTTP answer and the
-/// logs carry. Blocking: the store is written.
-///
-/// # Errors
-/// A 400 for a body with no usable row or an id out of form, 409 when the instance is full,
-/// 500 for the database.
-pub fn ingest(s: &Shared, id: &str, body: &[u8], ndjson: bool) -> Result<Value, ApiError> {
-    check_id(id)?;
-    let parsed = registry::parse_telemetry(body, ndjson, s.cfg.max_rows_per_request)?;
-    let (seq, existed) = {
-        let conn = s
-            .writer
-            .lock()
-            .unwrap_or_else(std::sync::PoisonError::into_inner);
-        let exists = store::elevator_exists(&conn, id).map_err(db)?;
-        if !exists && store::elevator_count(&conn).map_err(db)? >= s.cfg.max_elevators {
-            return Err(full(s));
-        }
-        let tx = conn.unchecked_transaction().map_err(db)?;
-        if !exists {
-            store::put_elevator(&tx, id, "{}").map_err(db)?;
-        }
-        let seq = store::append_batch(&tx, id, &parsed.readings).map_err(db)?;
-        tx.commit().map_err(db)?;
-        (seq, exists)
-    };
-    if !existed {
-        log(
-            "info",
-            &format!("elevator {id} created by its first telemetry"),
-        );
-    }
-    {
-        let mut m = s
-            .ingest
-            .lock()
-            .unwrap_or_else(std::sync::PoisonError::into_inner);
-        let e = m.entry(id.to_string()).or_default();
-        e.requests += 1;
-        e.rows += parsed.readings.len() as u64;
-        e.bad += parsed.bad;
-    }
-    s.poke(id);
-    Ok(json!({
-        "accepted": parsed.readings.len(),
-        "bad": parsed.bad,
-        "missing": parsed.missing,
-        "unknown_signals": parsed.unknown,
-        "first_bad_line": parsed.first_bad_line,
-        "first_bad_reason": parsed.first_bad_reason,
-        "seq": seq,
-    }))
 }
 
 /// `from`, `to`, `limit` and `level` of the list endpoints.
@@ -875,25 +752,4 @@ async fn metrics(State(s): State<Arc<Shared>>, headers: HeaderMap) -> ApiResult 
     })
     .await?;
     Ok(([(header::CONTENT_TYPE, "text/plain; version=0.0.4")], text).into_response())
-}
-
-/// A JSON object from the trip CSV line: numbers as numbers, empty fields as null.
-pub fn trip_object(line: &str, info: &ElevatorInfo) -> Value {
-    let mut m = Map::new();
-    let header = liftwatch::monitor::TRIP_CSV_HEADER.split(',');
-    for (name, field) in header.zip(line.split(',')) {
-        let v = if field.is_empty() {
-            Value::Null
-        } else if matches!(name, "level" | "mode") {
-            Value::String(field.to_string())
-        } else {
-            field.parse::<f64>().map_or(Value::Null, num)
-        };
-        m.insert(name.to_string(), v);
-    }
-    for key in ["start", "end"] {
-        let t = m.get(key).and_then(Value::as_f64).unwrap_or(f64::NAN);
-        m.insert(format!("{key}_text"), time_text(t, info));
-    }
-    Value::Object(m)
 }

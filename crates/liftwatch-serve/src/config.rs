@@ -26,6 +26,7 @@
 
 use std::net::SocketAddr;
 use std::path::Path;
+use std::time::Duration;
 
 use serde::{Deserialize, Serialize};
 
@@ -206,7 +207,7 @@ impl Config {
             return Err("max_body_bytes (≥ 1024), max_rows_per_request and max_elevators (≥ 1) bound the input".into());
         }
         if let Some(url) = &self.mqtt {
-            crate::mqtt::Broker::parse(url).map_err(|e| format!("mqtt {e}"))?;
+            Broker::parse(url).map_err(|e| format!("mqtt {e}"))?;
         }
         if self.mqtt_client_id.is_empty() || self.mqtt_client_id.len() > 64 {
             return Err("mqtt_client_id must be 1 to 64 characters".into());
@@ -326,3 +327,83 @@ mod tests {
         assert!(toml::from_str::<Config>("lisen = \"x\"").is_err());
     }
 }
+
+/// A broker's address and login, from `mqtt://[user[:password]@]host[:port]`.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Broker {
+    /// Host name or address.
+    pub host: String,
+    /// Port (1883 when the URL gives none).
+    pub port: u16,
+    /// User and password, when the URL gives them.
+    pub login: Option<(String, String)>,
+}
+
+/// Keep-alive of the connections: a dead broker is noticed within one and a half of it.
+pub const MQTT_KEEP_ALIVE: Duration = Duration::from_secs(15);
+
+/// Requests the client may queue before a publish waits: a few seconds of a busy building's
+/// events and acknowledgements.
+pub const MQTT_REQUEST_QUEUE: usize = 1024;
+
+/// Largest MQTT packet accepted or sent (bytes): the HTTP body limit's order, a few minutes of
+/// a gateway's batch.
+pub const MQTT_MAX_PACKET_BYTES: usize = 8 << 20;
+
+/// MQTT's registered port.
+const DEFAULT_PORT: u16 = 1883;
+
+impl Broker {
+    /// Reads an `mqtt://` URL.
+    ///
+    /// # Errors
+    /// One line saying what is wrong with it.
+    pub fn parse(url: &str) -> Result<Broker, String> {
+        let rest = url
+            .strip_prefix("mqtt://")
+            .ok_or_else(|| format!("`{url}`: expected mqtt://[user:password@]host[:port]"))?;
+        let rest = rest.trim_end_matches('/');
+        let (login, hostport) = match rest.rsplit_once('@') {
+            Some((l, h)) => {
+                let (u, p) = l.split_once(':').unwrap_or((l, ""));
+                (Some((u.to_string(), p.to_string())), h)
+            }
+            None => (None, rest),
+        };
+        let (host, port) = match hostport.rsplit_once(':') {
+            Some((h, p)) => (
+                h,
+                p.parse::<u16>()
+                    .map_err(|_| format!("`{url}`: the port `{p}` is not a number"))?,
+            ),
+            None => (hostport, DEFAULT_PORT),
+        };
+        if host.is_empty() || host.contains('/') {
+            return Err(format!("`{url}`: no host"));
+        }
+        Ok(Broker {
+            host: host.to_string(),
+            port,
+            login,
+        })
+    }
+
+    /// Connection options for a client named `client_id`.
+    pub fn options(&self, client_id: &str, persistent: bool) -> rumqttc::MqttOptions {
+        let mut o = rumqttc::MqttOptions::new(client_id, self.host.clone(), self.port);
+        o.set_keep_alive(MQTT_KEEP_ALIVE)
+            .set_clean_session(!persistent)
+            .set_max_packet_size(MQTT_MAX_PACKET_BYTES, MQTT_MAX_PACKET_BYTES)
+            .set_request_channel_capacity(MQTT_REQUEST_QUEUE);
+        if let Some((u, p)) = &self.login {
+            o.set_credentials(u.clone(), p.clone());
+        }
+        o
+    }
+
+    /// `host:port`, without the login, for messages.
+    pub fn display(&self) -> String {
+        format!("mqtt://{}:{}", self.host, self.port)
+    }
+}
+

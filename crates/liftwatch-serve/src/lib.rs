@@ -18,6 +18,8 @@
 
 pub mod api;
 pub mod config;
+pub mod error;
+pub mod ingest;
 pub mod mqtt;
 pub mod registry;
 pub mod replay;
@@ -186,7 +188,7 @@ pub fn serve(opts: ServeOptions) -> Result<(), String> {
         events_mqtt: std::sync::OnceLock::new(),
     });
     if let Some(url) = &opts.cfg.mqtt {
-        let broker = mqtt::Broker::parse(url).map_err(|e| format!("--mqtt {e}"))?;
+        let broker = config::Broker::parse(url).map_err(|e| format!("--mqtt {e}"))?;
         let client = mqtt::start(shared.clone(), &broker, &opts.cfg.mqtt_client_id)?;
         let _ = shared.events_mqtt.set(client);
         log(

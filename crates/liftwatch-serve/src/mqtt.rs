@@ -4,7 +4,7 @@
 //!
 //! ```text
 //! gateway ─ PUBLISH liftwatch/{id}/telemetry (QoS 1) ─ broker ─ subscriber thread
-//!     ─ api::ingest (the HTTP path: parse, one batch committed, worker woken) ─ PUBACK
+//!     ─ ingest::ingest (the HTTP path: parse, one batch committed, worker woken) ─ PUBACK
 //! worker ─ checkpoint committed ─ PUBLISH liftwatch/{id}/events (QoS 1), one event line each
 //! ```
 //!
@@ -25,27 +25,20 @@ use std::sync::atomic::Ordering;
 use std::sync::Arc;
 use std::time::Duration;
 
-use rumqttc::{Client, Connection, Event, MqttOptions, Packet, QoS};
+use rumqttc::{Client, Connection, Event, Packet, QoS};
 
-use crate::{api, log, Shared};
+use crate::config::{Broker, MQTT_REQUEST_QUEUE};
+use crate::{ingest, log, Shared};
 
 /// The topic filter the service subscribes to.
 pub const TELEMETRY_FILTER: &str = "liftwatch/+/telemetry";
 
-/// Keep-alive of the connections: a dead broker is noticed within one and a half of it.
-const KEEP_ALIVE: Duration = Duration::from_secs(15);
 
 /// Pause before reconnecting after a connection error, so that a broker that is away is not
 /// hammered.
 const RECONNECT_PAUSE: Duration = Duration::from_secs(1);
 
-/// Requests the client may queue before a publish waits: a few seconds of a busy building's
-/// events and acknowledgements.
-const REQUEST_QUEUE: usize = 1024;
 
-/// Largest MQTT packet accepted or sent (bytes): the HTTP body limit's order, a few minutes of
-/// a gateway's batch.
-const MAX_PACKET_BYTES: usize = 8 << 20;
 
 /// The events topic of elevator `id`.
 pub fn events_topic(id: &str) -> String {
@@ -65,83 +58,15 @@ pub fn id_of_topic(topic: &str) -> Option<&str> {
         .filter(|id| !id.contains('/'))
 }
 
-/// A broker's address and login, from `mqtt://[user[:password]@]host[:port]`.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct Broker {
-    /// Host name or address.
-    pub host: String,
-    /// Port (1883 when the URL gives none).
-    pub port: u16,
-    /// User and password, when the URL gives them.
-    pub login: Option<(String, String)>,
-}
-
-/// MQTT's registered port.
-const DEFAULT_PORT: u16 = 1883;
-
-impl Broker {
-    /// Reads an `mqtt://` URL.
-    ///
-    /// # Errors
-    /// One line saying what is wrong with it.
-    pub fn parse(url: &str) -> Result<Broker, String> {
-        let rest = url
-            .strip_prefix("mqtt://")
-            .ok_or_else(|| format!("`{url}`: expected mqtt://[user:password@]host[:port]"))?;
-        let rest = rest.trim_end_matches('/');
-        let (login, hostport) = match rest.rsplit_once('@') {
-            Some((l, h)) => {
-                let (u, p) = l.split_once(':').unwrap_or((l, ""));
-                (Some((u.to_string(), p.to_string())), h)
-            }
-            None => (None, rest),
-        };
-        let (host, port) = match hostport.rsplit_once(':') {
-            Some((h, p)) => (
-                h,
-                p.parse::<u16>()
-                    .map_err(|_| format!("`{url}`: the port `{p}` is not a number"))?,
-            ),
-            None => (hostport, DEFAULT_PORT),
-        };
-        if host.is_empty() || host.contains('/') {
-            return Err(format!("`{url}`: no host"));
-        }
-        Ok(Broker {
-            host: host.to_string(),
-            port,
-            login,
-        })
-    }
-
-    /// Connection options for a client named `client_id`.
-    pub fn options(&self, client_id: &str, persistent: bool) -> MqttOptions {
-        let mut o = MqttOptions::new(client_id, self.host.clone(), self.port);
-        o.set_keep_alive(KEEP_ALIVE)
-            .set_clean_session(!persistent)
-            .set_max_packet_size(MAX_PACKET_BYTES, MAX_PACKET_BYTES)
-            .set_request_channel_capacity(REQUEST_QUEUE);
-        if let Some((u, p)) = &self.login {
-            o.set_credentials(u.clone(), p.clone());
-        }
-        o
-    }
-
-    /// `host:port`, without the login, for messages.
-    pub fn display(&self) -> String {
-        format!("mqtt://{}:{}", self.host, self.port)
-    }
-}
-
 /// Connects the service to `broker` as `client_id`: a thread takes telemetry from
-/// [`TELEMETRY_FILTER`] into [`api::ingest`], and the returned client publishes events.
+/// [`TELEMETRY_FILTER`] into [`ingest::ingest`], and the returned client publishes events.
 ///
 /// # Errors
 /// One line when the thread cannot be started.
 pub fn start(shared: Arc<Shared>, broker: &Broker, client_id: &str) -> Result<Client, String> {
     let mut opts = broker.options(client_id, true);
     opts.set_manual_acks(true);
-    let (client, connection) = Client::new(opts, REQUEST_QUEUE);
+    let (client, connection) = Client::new(opts, MQTT_REQUEST_QUEUE);
     let sub = client.clone();
     let name = broker.display();
     std::thread::Builder::new()
@@ -195,7 +120,7 @@ fn take(shared: &Shared, topic: &str, payload: &[u8]) -> bool {
         .iter()
         .find(|b| !b.is_ascii_whitespace())
         .is_some_and(|&b| b == b'{');
-    match api::ingest(shared, id, payload, ndjson) {
+    match ingest::ingest(shared, id, payload, ndjson) {
         Ok(_) => true,
         Err(e) if e.0.is_client_error() => {
             shared.refused.fetch_add(1, Ordering::Relaxed);

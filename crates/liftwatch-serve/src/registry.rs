@@ -23,9 +23,9 @@ use liftwatch::ingest::{IngestReport, Layout, Signal};
 use liftwatch::Sample;
 use rusqlite::{params, Connection, OptionalExtension};
 use serde::Deserialize;
-use serde_json::{json, Value};
+use serde_json::{json, Map, Value};
 
-use crate::api::{time_text, trip_object, ApiError};
+use crate::error::ApiError;
 use crate::config::{one_line, ElevatorInfo};
 use crate::{log, store, Shared};
 
@@ -604,7 +604,7 @@ pub fn add_visit(conn: &Connection, id: &str, v: &Visit) -> Result<Value, ApiErr
     let tx = conn.unchecked_transaction().map_err(db)?;
     let labelled = tx
         .execute(
-            "UPDATE events SET label = ?2 WHERE elevator = ?1 AND label IS NULL AND level != 'normal' AND time <= ?3",
+            "UPDATE events SET label = ?2 WHERE elevator = ?1 AND label IS NULL AND level IN ('advisory', 'alarm') AND time <= ?3",
             params![id, v.finding, v.time],
         )
         .map_err(db)?;
@@ -884,6 +884,49 @@ fn prom(v: f64) -> String {
     } else {
         "-Inf".into()
     }
+}
+
+/// Data-clock times above this are Unix time (2001-09-09 onwards), as the library reads them:
+/// only those get an RFC 3339 text.
+pub const UNIX_CLOCK_FROM_S: f64 = 1e8;
+
+/// RFC 3339 text of a data-clock time at the elevator's offset, when the clock is Unix time.
+pub fn time_text(t: f64, info: &ElevatorInfo) -> Value {
+    if !(t.is_finite() && t > UNIX_CLOCK_FROM_S) {
+        return Value::Null;
+    }
+    let offset = info
+        .timezone
+        .as_deref()
+        .and_then(|tz| crate::config::utc_offset(tz).ok())
+        .unwrap_or(0);
+    Value::String(liftwatch::ingest::time::format_rfc3339(t, offset))
+}
+
+/// A number as JSON, NaN as null.
+fn num(x: f64) -> Value {
+    serde_json::Number::from_f64(x).map_or(Value::Null, Value::Number)
+}
+
+/// A JSON object from the trip CSV line: numbers as numbers, empty fields as null.
+pub fn trip_object(line: &str, info: &ElevatorInfo) -> Value {
+    let mut m = Map::new();
+    let header = liftwatch::monitor::TRIP_CSV_HEADER.split(',');
+    for (name, field) in header.zip(line.split(',')) {
+        let v = if field.is_empty() {
+            Value::Null
+        } else if matches!(name, "level" | "mode") {
+            Value::String(field.to_string())
+        } else {
+            field.parse::<f64>().map_or(Value::Null, num)
+        };
+        m.insert(name.to_string(), v);
+    }
+    for key in ["start", "end"] {
+        let t = m.get(key).and_then(Value::as_f64).unwrap_or(f64::NAN);
+        m.insert(format!("{key}_text"), time_text(t, info));
+    }
+    Value::Object(m)
 }
 
 #[cfg(test)]

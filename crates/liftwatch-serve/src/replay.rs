@@ -85,7 +85,7 @@ pub fn sender_for(url: &str, token: Option<String>) -> Result<Box<dyn Sender>, S
         return Err(format!("--to `{url}`: https is not spoken by replay; send to the server's plain address, or through a local TLS tunnel"));
     }
     if url.starts_with("mqtt://") {
-        let broker = crate::mqtt::Broker::parse(url).map_err(|e| format!("--to {e}"))?;
+        let broker = crate::config::Broker::parse(url).map_err(|e| format!("--to {e}"))?;
         return Ok(Box::new(MqttSender::new(&broker)));
     }
     Err(format!(
@@ -374,7 +374,7 @@ pub struct MqttSender {
 }
 
 impl MqttSender {
-    fn new(broker: &crate::mqtt::Broker) -> MqttSender {
+    fn new(broker: &crate::config::Broker) -> MqttSender {
         let id = format!("liftwatch-replay-{}", std::process::id());
         let (client, connection) = rumqttc::Client::new(broker.options(&id, false), 16);
         MqttSender { client, connection }

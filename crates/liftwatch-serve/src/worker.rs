@@ -167,6 +167,21 @@ impl SampleSink for Feed<'_> {
                     m.event_line(e),
                 ));
             }
+            // Availability and doors (an outage's start and end, the door advisory), the
+            // same lines as the events file, in the same order.
+            if let Some(e) = &row.operation {
+                let level = match e {
+                    liftwatch::operation::OperationEvent::Door { raised: true, .. } => "advisory",
+                    liftwatch::operation::OperationEvent::Door { raised: false, .. } => "normal",
+                    _ => "outage",
+                };
+                self.events.push((
+                    self.seq,
+                    e.time(),
+                    level.to_string(),
+                    m.operation_event_line(e),
+                ));
+            }
         }
         Ok(())
     }

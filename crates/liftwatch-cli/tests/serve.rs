@@ -502,7 +502,7 @@ fn metric(text: &str, name: &str) -> std::collections::HashMap<String, f64> {
 /// 10 s, on loopback, with a model each. Reports the ingest-to-visible latency (from a batch's
 /// 200 to the checkpoint that stores its outputs, polled every 250 ms), the server's memory per
 /// elevator, and checks that every elevator's rows were all applied. Run with a release server:
-/// `LIFTWATCH_BIN=target/release/liftwatch cargo test -p liftwatch-cli --test serve -- --ignored --nocapture load`.
+/// `LIFTWATCH_BIN=$PWD/target/release/liftwatch cargo test -p liftwatch-cli --test serve -- --ignored --nocapture load`.
 #[test]
 #[ignore = "10 minutes of wall time"]
 fn load_many_elevators_at_one_hertz() {

@@ -12,8 +12,14 @@ use serde_json::Value;
 pub const BIN: &str = env!("CARGO_BIN_EXE_liftwatch");
 
 /// The server binary of the load test: `LIFTWATCH_BIN` (a release build), else this profile's.
+/// A relative path is the workspace's, where the command is typed (cargo runs the test in the
+/// crate's directory).
 pub fn server_bin() -> String {
-    std::env::var("LIFTWATCH_BIN").unwrap_or_else(|_| BIN.to_string())
+    let Ok(bin) = std::env::var("LIFTWATCH_BIN") else {
+        return BIN.to_string();
+    };
+    let workspace = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    workspace.join(bin).to_string_lossy().into_owned()
 }
 
 /// The write token of the cases.

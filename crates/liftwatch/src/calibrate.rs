@@ -50,6 +50,11 @@ const YEAR_S: f64 = 365.25 * 86_400.0;
 /// what they cannot promise.
 pub const ENOUGH_TRAINING_DAYS: f64 = 7.0;
 
+/// The same in hours as a training report counts them, from the first to the last healthy
+/// trip: a week's log measures a few hours less than 168 (no trips at night at its ends), so a
+/// week is 160 h or more.
+pub const ENOUGH_TRAINING_HOURS: f64 = 160.0;
+
 /// Fewest usable healthy trips a calibration accepts.
 const MIN_HEALTHY_TRIPS: usize = 30;
 

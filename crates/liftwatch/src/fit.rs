@@ -12,7 +12,9 @@
 //! file form (DATA.md §5) is [`crate::file`].
 
 use crate::baseline::BaselineLimits;
-use crate::calibrate::{calibrate, CalibrationReport, CalibrationSettings, ENOUGH_TRAINING_DAYS};
+use crate::calibrate::{
+    calibrate, CalibrationReport, CalibrationSettings, ENOUGH_TRAINING_DAYS, ENOUGH_TRAINING_HOURS,
+};
 use crate::elevator::Elevator;
 use crate::error::Result;
 use crate::features::{FeatureConfig, Features};
@@ -179,13 +181,13 @@ pub fn fit_with(
     })
 }
 
-/// What a training shorter than [`ENOUGH_TRAINING_DAYS`] cannot promise, in two lines; none
-/// for a long enough one.
+/// What a training shorter than [`ENOUGH_TRAINING_HOURS`] (a week's log) cannot promise, in
+/// two lines; none for a long enough one.
 fn short_training_notes(report: &CalibrationReport, risk: &RiskConfig) -> Vec<String> {
-    let days = report.hours / 24.0;
-    if days >= ENOUGH_TRAINING_DAYS {
+    if report.hours >= ENOUGH_TRAINING_HOURS {
         return Vec::new();
     }
+    let days = report.hours / 24.0;
     vec![
         format!(
             "short training: {:.1} h ({} healthy trips) of the {ENOUGH_TRAINING_DAYS:.0} days the calibration needs; its bootstrap resamples {}, so the advisory threshold (R {:.1}) is only as wide as these hours' own wander",

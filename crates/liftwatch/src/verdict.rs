@@ -35,12 +35,9 @@ use crate::monitor::MonitorState;
 use crate::operation::Outage;
 use crate::risk::friction_reference;
 
-/// Hours of healthy training below which the verdict says the model is short of data: a
-/// week holds seven thermal cycles of the winding and a weekend's traffic, what the
-/// calibration's bootstrap needs to see to state its false-alarm rate (README, Method). The
-/// hours are counted from the first to the last trip, so a week's log measures a few hours
-/// less (no trips at night at its ends): 160 h.
-pub const FULL_TRAINING_HOURS: f64 = 160.0;
+/// Hours of healthy training below which the verdict says the model is short of data: the
+/// calibration's own bound, [`crate::calibrate::ENOUGH_TRAINING_HOURS`].
+pub const FULL_TRAINING_HOURS: f64 = crate::calibrate::ENOUGH_TRAINING_HOURS;
 
 /// One mode's drift now, in its physical unit.
 #[derive(Clone, Debug, PartialEq, Serialize)]

@@ -148,15 +148,9 @@ impl DoorBehaviour {
     }
 }
 
-/// The kind of an outage.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum OutageKind {
-    /// The car is taken out of service at a landing (a fault lock-out, a key switch).
-    OutOfService,
-    /// The car stops between two landings and stays there.
-    StuckBetweenFloors,
-}
+/// The kind of an outage: the one the monitor names ([`crate::operation::OutageKind`]), so the
+/// simulator's truth and the monitor's events speak one vocabulary.
+pub use crate::operation::OutageKind;
 
 /// An outage to simulate.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]

@@ -13,23 +13,21 @@ use common::serve::*;
 use common::Dir;
 use serde_json::Value;
 
-#[test]
-fn a_stream_killed_and_restarted_gives_the_rows_of_a_batch_run() {
-    let dir = Dir::new("serve-stream");
-    let t0 = Instant::now();
-    let (healthy, worn) = (dir.path("healthy"), dir.path("worn"));
+/// One simulated healthy day (seed 5) into `healthy` and its model (150 epochs), the start of
+/// the stream test and of the load test; returns the model's path.
+fn healthy_day_and_model(dir: &Dir, healthy: &Path) -> std::path::PathBuf {
     let s = |p: &Path| p.to_str().unwrap().to_string();
+    let model = dir.path("model.json");
     run(&[
         "simulate",
         "--out",
-        &s(&healthy),
+        &s(healthy),
         "--days",
         "1",
         "--seed",
         "5",
         "-q",
     ]);
-    let model = dir.path("model.json");
     run(&[
         "fit",
         "--input",
@@ -42,6 +40,16 @@ fn a_stream_killed_and_restarted_gives_the_rows_of_a_batch_run() {
         "150",
         "-q",
     ]);
+    model
+}
+
+#[test]
+fn a_stream_killed_and_restarted_gives_the_rows_of_a_batch_run() {
+    let dir = Dir::new("serve-stream");
+    let t0 = Instant::now();
+    let (healthy, worn) = (dir.path("healthy"), dir.path("worn"));
+    let s = |p: &Path| p.to_str().unwrap().to_string();
+    let model = healthy_day_and_model(&dir, &healthy);
     // A stuck speed reading from 0.3 days on: a sensor advisory and its end, two events.
     run(&[
         "simulate",
@@ -514,30 +522,8 @@ fn load_many_elevators_at_one_hertz() {
     /// Sender threads, each with its own keep-alive connection.
     const THREADS: usize = 16;
     let dir = Dir::new("serve-load");
-    let s = |p: &Path| p.to_str().unwrap().to_string();
-    let (healthy, model) = (dir.path("healthy"), dir.path("model.json"));
-    run(&[
-        "simulate",
-        "--out",
-        &s(&healthy),
-        "--days",
-        "1",
-        "--seed",
-        "5",
-        "-q",
-    ]);
-    run(&[
-        "fit",
-        "--input",
-        &s(&healthy.join("raw.csv")),
-        "--elevator",
-        &s(&healthy.join("elevator.toml")),
-        "--out",
-        &s(&model),
-        "--epochs",
-        "150",
-        "-q",
-    ]);
+    let healthy = dir.path("healthy");
+    let model = healthy_day_and_model(&dir, &healthy);
     let text = std::fs::read_to_string(healthy.join("raw.csv")).unwrap();
     let mut batches: Vec<String> = Vec::new();
     let mut start = f64::NAN;

@@ -111,6 +111,17 @@ pub struct Evidence {
     /// Trips the leading CUSUM holds as changed (the drifts above are measured on them while
     /// `cusum_ratio` is at least the release ratio).
     pub cusum_trips: u32,
+    /// Log-likelihood ratio of the motor signature alone on those trips (the mode is named
+    /// when the best of the three leads the runner-up by ln 20 ≈ 3.0; events written before it
+    /// was kept read 0).
+    #[serde(default)]
+    pub llr_motor: f64,
+    /// The same for the brake signature.
+    #[serde(default)]
+    pub llr_brake: f64,
+    /// The same for the friction signature.
+    #[serde(default)]
+    pub llr_friction: f64,
 }
 
 impl Evidence {
@@ -137,6 +148,9 @@ impl Evidence {
             cusum_signature: a.decision.lead_signature,
             cusum_size: a.decision.lead_size,
             cusum_trips: a.decision.window_trips,
+            llr_motor: a.decision.isolation[MOTOR],
+            llr_brake: a.decision.isolation[BRAKE],
+            llr_friction: a.decision.isolation[FRICTION],
         }
     }
 }

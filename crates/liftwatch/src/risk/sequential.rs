@@ -144,7 +144,12 @@ impl SequentialConfig {
                 check("risk.sequential.h", self.h[m][j], 1e-3, 1e9)?;
             }
             check("risk.sequential.wander", self.wander[m], 0.0, 1e3)?;
-            check("risk.sequential.reference_se", self.reference_se[m], 0.0, 1e3)?;
+            check(
+                "risk.sequential.reference_se",
+                self.reference_se[m],
+                0.0,
+                1e3,
+            )?;
         }
         Ok(())
     }
@@ -229,7 +234,11 @@ impl SequentialConfig {
                 let w: Vec<f64> = days.iter().map(|d| 1.0 / d.1).collect();
                 let sw: f64 = w.iter().sum();
                 let mean = days.iter().zip(&w).map(|(d, w)| w * d.0).sum::<f64>() / sw;
-                let q: f64 = days.iter().zip(&w).map(|(d, w)| w * (d.0 - mean).powi(2)).sum();
+                let q: f64 = days
+                    .iter()
+                    .zip(&w)
+                    .map(|(d, w)| w * (d.0 - mean).powi(2))
+                    .sum();
                 let c = sw - w.iter().map(|w| w * w).sum::<f64>() / sw;
                 ((q - (days.len() - 1) as f64) / c).max(0.0)
             } else {
@@ -321,6 +330,12 @@ pub struct Decision {
     pub lead_signature: FaultMode,
     /// Its change size ν, in standard errors of one trip.
     pub lead_size: f64,
+    /// Log-likelihood ratio of each signature alone (motor, brake, friction) against no
+    /// change on the leading window, z_m²/2: the evidence the mode is named from, and the
+    /// reason when it is `unknown` (the best does not lead the runner-up by ln
+    /// [`ISOLATION_ODDS`]).
+    #[serde(with = "exact::array", default)]
+    pub isolation: [f64; N_MODES],
 }
 
 /// The CUSUM bank of one elevator: one per mode and size.
@@ -371,13 +386,15 @@ impl Sequential {
         }
         let c = &self.bank[lead.0][lead.1];
         let (drift, drift_se) = window_drift(cfg, c);
+        let (mode, isolation) = if c.trips > 0 {
+            isolate(cfg, c)
+        } else {
+            (FaultMode::Unknown, [0.0; N_MODES])
+        };
         Decision {
             ratio: lead.2,
-            mode: if c.trips > 0 {
-                isolate(cfg, c)
-            } else {
-                FaultMode::Unknown
-            },
+            mode,
+            isolation,
             drift,
             drift_se,
             window_trips: c.trips,
@@ -393,8 +410,9 @@ impl Sequential {
 }
 
 /// The mode whose signature alone explains the window best, when it does so by the odds of
-/// [`ISOLATION_ODDS`]; only rises (positive scores) are degradations.
-fn isolate(cfg: &SequentialConfig, c: &Cusum) -> FaultMode {
+/// [`ISOLATION_ODDS`], with each signature's log-likelihood ratio z²/2; only rises (positive
+/// scores) are degradations.
+fn isolate(cfg: &SequentialConfig, c: &Cusum) -> (FaultMode, [f64; N_MODES]) {
     let w = unpack(&c.w);
     let mut z2 = [0.0; N_MODES];
     for m in 0..N_MODES {
@@ -407,11 +425,12 @@ fn isolate(cfg: &SequentialConfig, c: &Cusum) -> FaultMode {
     }
     let mut order = MACHINE_MODES;
     order.sort_by(|a, b| z2[*b as usize].total_cmp(&z2[*a as usize]));
-    if z2[order[0] as usize] - z2[order[1] as usize] >= 2.0 * ISOLATION_ODDS.ln() {
+    let mode = if z2[order[0] as usize] - z2[order[1] as usize] >= 2.0 * ISOLATION_ODDS.ln() {
         order[0]
     } else {
         FaultMode::Unknown
-    }
+    };
+    (mode, z2.map(|z| 0.5 * z))
 }
 
 /// Joint estimate of the three drifts on a window, with standard errors from the healthy

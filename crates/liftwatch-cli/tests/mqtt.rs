@@ -83,10 +83,27 @@ fn telemetry_through_a_broker_gives_the_rows_of_a_batch_run_and_events_come_out(
     let dir = Dir::new("serve-mqtt");
     let s = |p: &Path| p.to_str().unwrap().to_string();
     let (healthy, worn) = (dir.path("healthy"), dir.path("worn"));
-    run(&["simulate", "--out", &s(&healthy), "--days", "1", "--seed", "6", "-q"]);
+    run(&[
+        "simulate",
+        "--out",
+        &s(&healthy),
+        "--days",
+        "1",
+        "--seed",
+        "6",
+        "-q",
+    ]);
     let model = dir.path("model.json");
     let (raw, elevator) = (healthy.join("raw.csv"), healthy.join("elevator.toml"));
-    run(&["fit", "--input", &s(&raw), "--elevator", &s(&elevator), "--out", &s(&model)]);
+    run(&[
+        "fit",
+        "--input",
+        &s(&raw),
+        "--elevator",
+        &s(&elevator),
+        "--out",
+        &s(&model),
+    ]);
     // A stuck speed reading from 0.3 days on: a sensor advisory and its end.
     let worn_args = ["--days", "0.6", "--seed", "6", "--start-hour", "24"];
     let fault = ["--sensor-fault", "stuck-speed", "--onset-days", "0.3", "-q"];
@@ -94,7 +111,14 @@ fn telemetry_through_a_broker_gives_the_rows_of_a_batch_run_and_events_come_out(
     let raw = worn.join("raw.csv");
     let (want_rows, want_events) = (dir.path("trips.csv"), dir.path("events.jsonl"));
     let monitor = ["monitor", "--model", &s(&model), "--input", &s(&raw)];
-    let outs = ["--out", &s(&want_rows), "--rows", "trip", "--events", &s(&want_events)];
+    let outs = [
+        "--out",
+        &s(&want_rows),
+        "--rows",
+        "trip",
+        "--events",
+        &s(&want_events),
+    ];
     run(&[&monitor[..], &outs, &["-q"]].concat());
     let want_events: Vec<Value> = std::fs::read_to_string(&want_events)
         .unwrap()
@@ -122,7 +146,16 @@ fn telemetry_through_a_broker_gives_the_rows_of_a_batch_run_and_events_come_out(
     // An operator's subscription to the events topic, as a dashboard or a ticket system has.
     let events_file = dir.path("mqtt-events.jsonl");
     let sub = Command::new(MOSQUITTO_SUB)
-        .args(["-h", "127.0.0.1", "-p", &port.to_string(), "-u", "gw", "-P", "gw-pw"])
+        .args([
+            "-h",
+            "127.0.0.1",
+            "-p",
+            &port.to_string(),
+            "-u",
+            "gw",
+            "-P",
+            "gw-pw",
+        ])
         .args(["-t", "liftwatch/lift-m/events", "-q", "1"])
         .args(["-C", &want_events.len().to_string(), "-W", "120"])
         .stdout(std::fs::File::create(&events_file).unwrap())
@@ -133,7 +166,15 @@ fn telemetry_through_a_broker_gives_the_rows_of_a_batch_run_and_events_come_out(
 
     // A gateway with a wrong password is refused by the broker, and replay says so.
     let refused = Command::new(BIN)
-        .args(["replay", "--input", &s(&raw), "--id", "lift-m", "--to", &url("gw:wrong")])
+        .args([
+            "replay",
+            "--input",
+            &s(&raw),
+            "--id",
+            "lift-m",
+            "--to",
+            &url("gw:wrong"),
+        ])
         .args(["--speed", "0", "-q"])
         .output()
         .unwrap();
@@ -143,11 +184,23 @@ fn telemetry_through_a_broker_gives_the_rows_of_a_batch_run_and_events_come_out(
 
     let t0 = Instant::now();
     let sent = Command::new(BIN)
-        .args(["replay", "--input", &s(&raw), "--id", "lift-m", "--to", &url("gw:gw-pw")])
+        .args([
+            "replay",
+            "--input",
+            &s(&raw),
+            "--id",
+            "lift-m",
+            "--to",
+            &url("gw:gw-pw"),
+        ])
         .args(["--speed", "0", "--batch-s", "60", "-q"])
         .output()
         .unwrap();
-    assert!(sent.status.success(), "{}", String::from_utf8_lossy(&sent.stderr));
+    assert!(
+        sent.status.success(),
+        "{}",
+        String::from_utf8_lossy(&sent.stderr)
+    );
     let want = csv_rows(&want_rows);
     // The broker acknowledged every batch; wait until the service stored what a batch run gives
     // (it holds back the trips of the last reorder window, as over HTTP).
@@ -161,9 +214,18 @@ fn telemetry_through_a_broker_gives_the_rows_of_a_batch_run_and_events_come_out(
         }
         std::thread::sleep(Duration::from_millis(100));
     };
-    assert!(got.len() + 3 >= want.len() && got.len() <= want.len(), "{} of {}", got.len(), want.len());
+    assert!(
+        got.len() + 3 >= want.len() && got.len() <= want.len(),
+        "{} of {}",
+        got.len(),
+        want.len()
+    );
     for (i, (g, w)) in got.iter().zip(&want).enumerate() {
-        assert_eq!(&strip(g.clone(), &["start_text", "end_text"]), w, "trip row {i}");
+        assert_eq!(
+            &strip(g.clone(), &["start_text", "end_text"]),
+            w,
+            "trip row {i}"
+        );
     }
     let events = server.get_json("/api/v1/elevators/lift-m/events")["events"]
         .as_array()
@@ -175,7 +237,10 @@ fn telemetry_through_a_broker_gives_the_rows_of_a_batch_run_and_events_come_out(
     let mut sub = sub;
     let t1 = Instant::now();
     while sub.0.try_wait().unwrap().is_none() {
-        assert!(t1.elapsed() < PATIENCE, "the events did not all come out on MQTT");
+        assert!(
+            t1.elapsed() < PATIENCE,
+            "the events did not all come out on MQTT"
+        );
         std::thread::sleep(Duration::from_millis(100));
     }
     let mut text = String::new();
@@ -183,7 +248,10 @@ fn telemetry_through_a_broker_gives_the_rows_of_a_batch_run_and_events_come_out(
         .unwrap()
         .read_to_string(&mut text)
         .unwrap();
-    let published: Vec<Value> = text.lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+    let published: Vec<Value> = text
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
     assert_eq!(published, want_events);
     let metrics = server.req("GET", "/metrics", None, b"").1;
     assert!(metrics.contains("elevator=\"lift-m\""), "{metrics}");

@@ -213,7 +213,12 @@ fn a_stream_killed_and_restarted_gives_the_rows_of_a_batch_run() {
         .collect();
     // The file lists events as they are raised, the API by their time: an outage is dated
     // from the car's last motion, before the event raised just ahead of its detection.
-    want.sort_by(|a, b| a["time"].as_f64().unwrap().total_cmp(&b["time"].as_f64().unwrap()));
+    want.sort_by(|a, b| {
+        a["time"]
+            .as_f64()
+            .unwrap()
+            .total_cmp(&b["time"].as_f64().unwrap())
+    });
     assert!(!want.is_empty(), "the scenario raises events");
     assert_eq!(events.len(), want.len());
     for (g, w) in events.iter().zip(&want) {
@@ -286,10 +291,16 @@ fn registry_and_shutdown(mut server: Server, model: &[u8]) {
     assert!(reply.contains("\"labelled_events\":1"), "{reply}");
     let events = server.get_json(&format!("{id}/events"));
     let events = events["events"].as_array().unwrap();
-    let advisory = events.iter().find(|e| e["level"] == "advisory").expect("the advisory");
+    let advisory = events
+        .iter()
+        .find(|e| e["level"] == "advisory")
+        .expect("the advisory");
     assert_eq!(advisory["label"], "confirmed");
     // An outage is not a finding to confirm: it stays unlabelled.
-    assert!(events.iter().filter(|e| e["kind"] == "outage").all(|e| e["label"].is_null()));
+    assert!(events
+        .iter()
+        .filter(|e| e["kind"] == "outage")
+        .all(|e| e["label"].is_null()));
     // After the rollback and the repair the monitor runs afresh (no trip counted yet) on the
     // model rolled back to; the labelled event is no longer open.
     let t0 = Instant::now();

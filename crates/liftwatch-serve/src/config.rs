@@ -406,4 +406,3 @@ impl Broker {
         format!("mqtt://{}:{}", self.host, self.port)
     }
 }
-

@@ -60,4 +60,3 @@ pub fn check_id(id: &str) -> Result<(), ApiError> {
 pub fn db(e: impl std::fmt::Display) -> ApiError {
     ApiError::internal(format!("database: {e}"))
 }
-

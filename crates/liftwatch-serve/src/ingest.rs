@@ -73,4 +73,3 @@ pub fn ingest(s: &Shared, id: &str, body: &[u8], ndjson: bool) -> Result<Value, 
         "seq": seq,
     }))
 }
-

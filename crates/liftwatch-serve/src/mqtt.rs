@@ -33,12 +33,9 @@ use crate::{ingest, log, Shared};
 /// The topic filter the service subscribes to.
 pub const TELEMETRY_FILTER: &str = "liftwatch/+/telemetry";
 
-
 /// Pause before reconnecting after a connection error, so that a broker that is away is not
 /// hammered.
 const RECONNECT_PAUSE: Duration = Duration::from_secs(1);
-
-
 
 /// The events topic of elevator `id`.
 pub fn events_topic(id: &str) -> String {
@@ -128,7 +125,13 @@ fn take(shared: &Shared, topic: &str, payload: &[u8]) -> bool {
             true
         }
         Err(e) => {
-            log("error", &format!("mqtt: {topic}: {}; left for the broker to deliver again", e.1));
+            log(
+                "error",
+                &format!(
+                    "mqtt: {topic}: {}; left for the broker to deliver again",
+                    e.1
+                ),
+            );
             false
         }
     }
@@ -138,9 +141,12 @@ fn take(shared: &Shared, topic: &str, payload: &[u8]) -> bool {
 /// log line (the store keeps every event; the topic is a notification).
 pub fn publish_events(client: &Client, id: &str, lines: &[&str]) {
     for line in lines {
-        if let Err(e) =
-            client.try_publish(events_topic(id), QoS::AtLeastOnce, false, line.as_bytes().to_vec())
-        {
+        if let Err(e) = client.try_publish(
+            events_topic(id),
+            QoS::AtLeastOnce,
+            false,
+            line.as_bytes().to_vec(),
+        ) {
             log("warn", &format!("mqtt: event of {id} not published: {e}"));
         }
     }

@@ -25,8 +25,8 @@ use rusqlite::{params, Connection, OptionalExtension};
 use serde::Deserialize;
 use serde_json::{json, Map, Value};
 
-use crate::error::ApiError;
 use crate::config::{one_line, ElevatorInfo};
+use crate::error::ApiError;
 use crate::{log, store, Shared};
 
 /// The raw header the row parser needs; prepended when a body comes without it.

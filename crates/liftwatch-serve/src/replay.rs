@@ -404,11 +404,7 @@ impl Sender for MqttSender {
                 }
                 Ok(Ok(_)) => {}
                 Ok(Err(e)) => return Err(SendError::Retry(format!("mqtt: {e}"))),
-                Err(_) => {
-                    return Err(SendError::Retry(
-                        "mqtt: no acknowledgement in time".into(),
-                    ))
-                }
+                Err(_) => return Err(SendError::Retry("mqtt: no acknowledgement in time".into())),
             }
         }
         let rows = csv.split(|&b| b == b'\n').filter(|l| !l.is_empty()).count() as u64;

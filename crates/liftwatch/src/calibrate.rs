@@ -8,6 +8,9 @@
 //! τ = μ_c + 3·σ_c of the healthy c = ln(1 + e_trip),  floored at ln 3
 //! advisory = max R over `years` of a moving-block bootstrap of the healthy trips (blocks of a day)
 //! alarm    = max(alarm_factor·advisory, steady R of a persistent z = alarm_z deviation)
+//! heating:  β_k from r_U ≈ Σ θ_m·x_m + Σ β_k·x_heat,k on the healthy trips (risk::evidence);
+//!           kept when its Wald χ² ≥ HEATING_MIN_WALD, and taken out of every trip before the
+//!           steps below
 //! sequential: θ0, s², info pooled over the healthy trips (risk::sequential)
 //!   h_mj = max(max G_mj over the same bootstrap years, ln(9·trips per year / target))
 //! ```
@@ -30,9 +33,12 @@ use serde::{Deserialize, Serialize};
 
 use crate::alarm::{AlarmState, Level};
 use crate::error::{Error, Result};
+use crate::linalg::SquareMatrix;
 use crate::mode::N_MODES;
 use crate::risk::sequential::N_SIZES;
-use crate::risk::{excess, RiskConfig, RiskTracker, Rls, SequentialConfig, TripEvidence};
+use crate::risk::{
+    excess, RiskConfig, RiskTracker, Rls, SequentialConfig, TripEvidence, MAX_HEATING, N_HEAT,
+};
 use crate::rng::{moving_blocks, BlockStart, Rng};
 use crate::sensor::SensorLimits;
 
@@ -54,6 +60,13 @@ pub const ENOUGH_TRAINING_DAYS: f64 = 7.0;
 /// trip: a week's log measures a few hours less than 168 (no trips at night at its ends), so a
 /// week is 160 h or more.
 pub const ENOUGH_TRAINING_HOURS: f64 = 160.0;
+
+/// The winding's heating is taken out of the evidence only when the training shows it: the
+/// Wald statistic βᵀ·V⁻¹·β of its two coefficients at least 11.8, the χ² of two degrees of
+/// freedom at p = 0.0027 (three standard errors of one), so a training whose traffic hardly
+/// varies (a few hours, one kind of hour) does not subtract coefficients it cannot know from
+/// every later trip.
+pub const HEATING_MIN_WALD: f64 = 11.8;
 
 /// Fewest usable healthy trips a calibration accepts.
 const MIN_HEALTHY_TRIPS: usize = 30;
@@ -217,6 +230,10 @@ pub fn calibrate(healthy: &[TripEvidence], settings: &CalibrationSettings) -> Re
             "risk calibration needs healthy trips in both directions".into(),
         ));
     }
+    // The heating is identified first and taken out of the trips, as the monitor takes it out
+    // of every trip: everything below is calibrated on what is left.
+    let (heating, heating_se) = identify_heating(&trips);
+    let trips: Vec<TripEvidence> = trips.iter().map(|t| t.without_heating(&heating)).collect();
     let longest = trips.iter().map(|t| t.end - t.start).fold(0.0, f64::max);
     sensor.max_trip_s = (2.0 * longest + 20.0).max(sensor.max_trip_s);
     cfg.trip_spread_u = fit_spread(trips.iter().map(|t| (t.mean_e_u, t.n)));
@@ -263,12 +280,102 @@ pub fn calibrate(healthy: &[TripEvidence], settings: &CalibrationSettings) -> Re
         target_false_advisories_per_year: settings.target_false_advisories_per_year,
         validated_false_advisories_per_year: episodes as f64 / settings.years.max(0.1),
     };
+    cfg.heating = heating;
+    cfg.heating_se = heating_se;
     cfg.validate()?;
     Ok(Calibration {
         risk: cfg,
         sensor,
         report,
     })
+}
+
+/// β_k of the winding's heating and their standard errors from the healthy trips: least
+/// squares of r_U on the three signatures and the heating lags jointly (trip means, each trip
+/// one observation, as the signatures' reference is pooled), with a sandwich covariance
+/// Σ_t g_t·g_tᵀ of the trips' scores, which holds for residuals correlated within a trip.
+/// Zero when the training does not show it: a Wald χ² below [`HEATING_MIN_WALD`], a steady
+/// heating Σ β_k that lowers Kd (a warmer winding never does) or beyond [`MAX_HEATING`], or
+/// regressors that are not separable.
+fn identify_heating(trips: &[TripEvidence]) -> ([f64; N_HEAT], [f64; N_HEAT]) {
+    const K: usize = N_MODES + N_HEAT;
+    let none = ([0.0; N_HEAT], [0.0; N_HEAT]);
+    let design = |t: &TripEvidence| -> ([[f64; K]; K], [f64; K]) {
+        let mut a = [[0.0; K]; K];
+        let mut b = [0.0; K];
+        let mut k = 0;
+        for i in 0..N_MODES {
+            for j in i..N_MODES {
+                a[i][j] = t.xtx[k];
+                a[j][i] = t.xtx[k];
+                k += 1;
+            }
+            b[i] = t.xtr[i];
+        }
+        for l in 0..N_HEAT {
+            for i in 0..N_MODES {
+                a[i][N_MODES + l] = t.heat.xh[l][i];
+                a[N_MODES + l][i] = t.heat.xh[l][i];
+            }
+            for q in 0..N_HEAT {
+                a[N_MODES + l][N_MODES + q] = t.heat.hh(l, q);
+            }
+            b[N_MODES + l] = t.heat.hr[l];
+        }
+        (a, b)
+    };
+    let mut a = SquareMatrix::zeros(K);
+    let mut b = [0.0; K];
+    for t in trips {
+        let (at, bt) = design(t);
+        for i in 0..K {
+            for j in 0..K {
+                *a.at(i, j) += at[i][j];
+            }
+            b[i] += bt[i];
+        }
+    }
+    let Some(l) = a.cholesky() else {
+        return none;
+    };
+    let theta = l.cholesky_solve(&b);
+    let inv = l.cholesky_inverse();
+    let mut meat = SquareMatrix::zeros(K);
+    for t in trips {
+        let (at, bt) = design(t);
+        let g: Vec<f64> = (0..K)
+            .map(|i| bt[i] - (0..K).map(|j| at[i][j] * theta[j]).sum::<f64>())
+            .collect();
+        meat.add_outer(&g, 1.0);
+    }
+    // V = A⁻¹·M·A⁻¹ on the heating block.
+    let mut v = [[0.0; N_HEAT]; N_HEAT];
+    for p in 0..N_HEAT {
+        for q in 0..N_HEAT {
+            let (rp, rq) = (N_MODES + p, N_MODES + q);
+            v[p][q] = (0..K)
+                .map(|i| {
+                    (0..K)
+                        .map(|j| inv.get(rp, i) * meat.get(i, j) * inv.get(j, rq))
+                        .sum::<f64>()
+                })
+                .sum();
+        }
+    }
+    let beta = [theta[N_MODES], theta[N_MODES + 1]];
+    let det = v[0][0] * v[1][1] - v[0][1] * v[1][0];
+    if !(det > 0.0 && det.is_finite()) {
+        return none;
+    }
+    let wald = (beta[0] * beta[0] * v[1][1] - 2.0 * beta[0] * beta[1] * v[0][1]
+        + beta[1] * beta[1] * v[0][0])
+        / det;
+    let steady = beta[0] + beta[1];
+    if wald >= HEATING_MIN_WALD && steady > 0.0 && steady <= MAX_HEATING {
+        (beta, [v[0][0].sqrt(), v[1][1].sqrt()])
+    } else {
+        none
+    }
 }
 
 /// Least-squares fit of mean² ≈ a + b/n with a, b ≥ small positive floors.
@@ -476,9 +583,13 @@ mod tests {
         calibrate(&healthy, &settings).expect("synthetic healthy trips suffice")
     }
 
+    /// The tracker over `trips` as the monitor feeds it (the heating taken out first).
     fn run(cfg: &RiskConfig, trips: &[TripEvidence]) -> Vec<TripAssessment> {
         let mut tr = RiskTracker::new(cfg);
-        trips.iter().map(|t| tr.push(cfg, t)).collect()
+        trips
+            .iter()
+            .map(|t| tr.push(cfg, &t.without_heating(&cfg.heating)))
+            .collect()
     }
 
     fn first_advisory(
@@ -490,6 +601,49 @@ mod tests {
             .zip(trips)
             .find(|(a, _)| a.risk >= cfg.advisory)
             .map(|(_, t)| t.start)
+    }
+
+    #[test]
+    fn the_windings_heating_is_identified_and_taken_out() {
+        // A winding whose Kd rises 40 % per unit of H (about 100 K at the reference force):
+        // the calibration finds β, and with it a heated healthy month stays quiet while the
+        // same month read without it (β = 0) sees the heating as a motor change.
+        let m = test_model();
+        let beta = 0.4;
+        let none = |_: f64, _: &[f64; N_MODES]| 0.0;
+        let healthy = crate::risk::tests::heated_trips(&m, 11, 8.0, 0.0, &none, beta);
+        let settings = CalibrationSettings {
+            years: 5.0,
+            ..CalibrationSettings::default()
+        };
+        let cal = calibrate(&healthy, &settings).expect("calibrates");
+        let cfg = cal.risk;
+        // The winding's own lag (45 min) is none of the basis's; the steady heating, the sum
+        // of the weights, is still its β.
+        let steady: f64 = cfg.heating.iter().sum();
+        let se = cfg.heating_se.iter().map(|s| s * s).sum::<f64>().sqrt();
+        assert!(
+            (steady - beta).abs() < 0.15 * beta + 3.0 * se,
+            "β = {:?} ± {:?}, true {beta}",
+            cfg.heating,
+            cfg.heating_se
+        );
+        // Unheated healthy trips identify none.
+        assert_eq!(calibrated(&m).risk.heating, [0.0; N_HEAT]);
+        let month = crate::risk::tests::heated_trips(&m, 99, 30.0, 0.0, &none, beta);
+        let a = run(&cfg, &month);
+        let seq = a.iter().map(|a| a.decision.ratio).fold(0.0, f64::max);
+        assert!(seq < 1.0, "the heating crossed a CUSUM: G/h = {seq}");
+        let blind = RiskConfig {
+            heating: [0.0; N_HEAT],
+            ..cfg.clone()
+        };
+        let a = run(&blind, &month);
+        let seq = a.iter().map(|a| a.decision.ratio).fold(0.0, f64::max);
+        assert!(
+            seq >= 1.0,
+            "unheated, the month should have looked changed: G/h = {seq}"
+        );
     }
 
     #[test]
@@ -697,11 +851,16 @@ mod tests {
             years: 5.0,
             ..CalibrationSettings::default()
         };
-        let cfg = calibrate(&training, &settings).expect("three days suffice").risk;
+        let cfg = calibrate(&training, &settings)
+            .expect("three days suffice")
+            .risk;
         let seq = cfg.sequential.as_ref().expect("separable signatures");
         // The days' spread shows in θ0's error: about 1.5 %/√3 beyond the pooled noise.
         let se = seq.reference_se[MOTOR];
-        assert!((0.5 * 0.015 / 3f64.sqrt()..0.02).contains(&se), "θ0's error {se}");
+        assert!(
+            (0.5 * 0.015 / 3f64.sqrt()..0.02).contains(&se),
+            "θ0's error {se}"
+        );
         let later = synthetic_trips(&m, 43, 30.0, 10.0 * 86_400.0, &|_, x| LATER_KD * x[MOTOR]);
         let ratio = |cfg: &RiskConfig| {
             run(cfg, &later)
@@ -709,11 +868,19 @@ mod tests {
                 .map(|a| a.decision.ratio)
                 .fold(0.0, f64::max)
         };
-        assert!(ratio(&cfg) < 1.0, "a new day's level crossed: G/h = {}", ratio(&cfg));
+        assert!(
+            ratio(&cfg) < 1.0,
+            "a new day's level crossed: G/h = {}",
+            ratio(&cfg)
+        );
         // Taking θ0 as exact, the same month is a "change": the test can fail.
         let mut exact = cfg.clone();
         exact.sequential.as_mut().expect("set").reference_se = [0.0; N_MODES];
-        assert!(ratio(&exact) >= 1.0, "G/h = {} with θ0 exact", ratio(&exact));
+        assert!(
+            ratio(&exact) >= 1.0,
+            "G/h = {} with θ0 exact",
+            ratio(&exact)
+        );
     }
 
     #[test]

@@ -192,4 +192,3 @@ pub fn strip(mut row: Value, keys: &[&str]) -> Value {
     m.retain(|k, _| !keys.contains(&k.as_str()));
     row
 }
-

@@ -46,7 +46,7 @@ use crate::mode::MACHINE_MODES;
 use crate::operation::{DayUsage, OperationEvent, OperationTracker};
 use crate::output::write_atomic;
 use crate::residual::{PredictionCache, Residuals};
-use crate::risk::{friction_reference, RiskTracker, TripAccumulator};
+use crate::risk::{friction_reference, heating_reference, Heating, RiskTracker, TripAccumulator};
 use crate::sample::Sample;
 use crate::sensor::SensorCheck;
 use rows::TripSums;
@@ -235,6 +235,10 @@ pub struct MonitorState {
     /// Residual sums of the trip in progress; states written before it start empty.
     #[serde(default)]
     trip_sums: TripSums,
+    /// The winding's heating ([`Heating`]); states written before it was kept start with a
+    /// winding at ambient.
+    #[serde(default)]
+    heating: Heating,
     /// Samples seen.
     pub samples: u64,
     /// Time of the last sample seen (s), NaN before the first: input at or before it was
@@ -378,6 +382,8 @@ pub struct Monitor {
     model: FittedModel,
     /// [`friction_reference`] of the model, computed once.
     friction: (f64, f64),
+    /// [`heating_reference`] of the model, computed once.
+    heating_force: f64,
     cache: PredictionCache,
     st: MonitorState,
     /// The aligned step (s): the model's, or alignment's default for a model written before
@@ -401,6 +407,7 @@ impl Monitor {
             baseline: Baseline::default(),
             episode_mode: FaultMode::Unknown,
             trip_sums: TripSums::default(),
+            heating: Heating::default(),
             samples: 0,
             last_time: f64::NAN,
             trips: 0,
@@ -414,6 +421,7 @@ impl Monitor {
         Monitor {
             model: model.clone(),
             friction: friction_reference(&model.hybrid),
+            heating_force: heating_reference(&model.hybrid),
             cache: PredictionCache::default(),
             st,
             step_s: model_step(model),
@@ -441,6 +449,7 @@ impl Monitor {
         Ok(Monitor {
             model: model.clone(),
             friction: friction_reference(&model.hybrid),
+            heating_force: heating_reference(&model.hybrid),
             cache: PredictionCache::default(),
             st: state,
             step_s: model_step(model),
@@ -547,8 +556,9 @@ impl Monitor {
             st.trip = TripAccumulator::default();
             st.open_trip = x.trip;
         }
+        let heating = st.heating.advance_row(self.heating_force, x, pred.as_ref());
         if let (Some(p), true) = (pred, x.s != 0 && x.trip.is_some()) {
-            st.trip.push(model, self.friction, x, &p, &res);
+            st.trip.push(model, self.friction, x, (&p, &res), heating);
         }
         if let Some(i) = x.trip {
             st.trip_sums.push(i, res.r_u, res.r_f, res.e);
@@ -588,6 +598,8 @@ impl Monitor {
         let Some(ev) = st.trip.finish(plausible) else {
             return;
         };
+        // The risk stage and the drift history see the trip without the winding's heating.
+        let ev = ev.without_heating(&self.model.risk.heating);
         if st.operation.serving_backlog(t.start_time) {
             // Just back from an outage (or the rescue run of a stuck car): not machine
             // evidence, as crate::operation::OUTAGE_BACKLOG_S says why.

@@ -6,11 +6,24 @@
 //! ```text
 //! x_motor = φ(s)·Kd·s·F_pred    x_brake = φ(s)·Kd·F_c·1[s = −1 or decel]    x_fric = φ(s)·Kd·(F_c + c·|v|)
 //! per trip: mean e_U, mean e_F, mean x·xᵀ, mean x·r_U, mean r_U²
+//!
+//! winding heating (healthy, predicted), two lags k of time constants τ_k (20 and 90 min):
+//!   H_k ← e^(−Δt/τ_k)·H_k + (1 − e^(−Δt/τ_k))·(F_pred/F_ref)²
+//!   x_heat,k = x_motor·H_k               the voltage of Kd·(1 + Σ β_k·H_k): copper's
+//!                                        resistance follows the copper losses I²R ∝ F²
+//!                                        through the winding's thermal lag
+//!   per trip: mean x·x_heat,k, mean x_heat,k·x_heat,l, mean x_heat,k·r_U
 //! ```
+//!
+//! The heating coefficients β_k are identified on the healthy trips beside the signatures
+//! ([`crate::calibrate`]) and taken out of every trip before any decision
+//! ([`TripEvidence::without_heating`]): a busy hour warms the winding and raises Kd by a few
+//! per cent, and a motor signature that does not know it sees a fault in the morning rush.
 
 use serde::{Deserialize, Serialize};
 
 use super::{RiskConfig, BRAKE, FRICTION, MOTOR, N_MODES};
+use crate::elevator::G;
 use crate::exact;
 use crate::features::{FeatureRow, Phase};
 use crate::model::{HybridModel, PhysParams, Prediction};
@@ -39,12 +52,58 @@ pub struct TripEvidence {
     pub rr: f64,
     /// False when a sensor plausibility check failed: the trip is not machine evidence.
     pub plausible: bool,
+    /// The trip's share of the winding-heating regressor x_heat; zero in evidence written
+    /// before it was kept, which then carries no heating.
+    #[serde(default)]
+    pub heat: HeatEvidence,
+}
+
+/// A trip's means of the heating regressors x_heat,k = x_motor·H_k against the signatures,
+/// each other and r_U.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct HeatEvidence {
+    /// Mean of x_m·x_heat,k per lag k and signature m (V²).
+    pub xh: [[f64; N_MODES]; N_HEAT],
+    /// Mean of x_heat,k·x_heat,l, packed (00, 01, 11) (V²).
+    pub hh: [f64; 3],
+    /// Mean of x_heat,k·r_U (V²).
+    pub hr: [f64; N_HEAT],
+}
+
+impl HeatEvidence {
+    /// Mean of x_heat,k·x_heat,l.
+    pub fn hh(&self, k: usize, l: usize) -> f64 {
+        self.hh[k + l]
+    }
 }
 
 impl TripEvidence {
     /// True when the trip counts as machine evidence.
     pub fn usable(&self, cfg: &RiskConfig) -> bool {
         self.plausible && self.n >= cfg.min_trip_samples && self.mean_e_u.is_finite()
+    }
+
+    /// The trip with the healthy heating of the winding taken out of its residual:
+    /// r_U − Σ β_k·x_heat,k in every sum over r_U (β = 0 leaves it as it is).
+    pub fn without_heating(&self, beta: &[f64; N_HEAT]) -> TripEvidence {
+        let mut t = self.clone();
+        if beta.iter().all(|b| *b == 0.0) {
+            return t;
+        }
+        let h = &self.heat;
+        let mut rr = self.rr;
+        for k in 0..N_HEAT {
+            for m in 0..N_MODES {
+                t.xtr[m] -= beta[k] * h.xh[k][m];
+            }
+            rr -= 2.0 * beta[k] * h.hr[k];
+            for l in 0..N_HEAT {
+                rr += beta[k] * h.hh(k, l) * beta[l];
+                t.heat.hr[k] -= beta[l] * h.hh(k, l);
+            }
+        }
+        t.rr = rr.max(0.0);
+        t
     }
 
     /// Mean squared regression residual of the trip for coefficients θ (V²).
@@ -98,6 +157,75 @@ pub fn signature(
     out
 }
 
+/// Number of thermal lags of the heating basis.
+pub const N_HEAT: usize = 2;
+
+/// Time constants of the heating basis (s): 20 and 90 min, either side of the 30-60 min of
+/// traction machines (MODEL.md). A winding's own first-order lag lies between two lags of
+/// shorter and longer constant, and a weighted sum of the two follows it closely, so the
+/// calibration identifies the weights (β_k) instead of assuming one constant: with a single
+/// lag of 45 min, a 40-floor car whose winding had another constant kept a few per cent of
+/// unexplained Kd at its busy hours, enough for twelve false motor advisories in the
+/// evaluation's 3-day trainings.
+pub const WINDING_TAUS_S: [f64; N_HEAT] = [1200.0, 5400.0];
+
+/// The force the heating is measured in (N): the full-load motoring force (1 − q)·M_r·g of
+/// the elevator description, at which a machine's rated winding rise is quoted. H = 1 is a
+/// winding that has run at that force for many time constants.
+pub fn heating_reference(model: &HybridModel) -> f64 {
+    let e = &model.elevator;
+    ((1.0 - e.counterweight_ratio()) * e.rated_load_kg * G).max(1.0)
+}
+
+/// The winding-heating state H_k: first-order lags of (F_pred/F_ref)² with the time constants
+/// [`WINDING_TAUS_S`]; no input while the car stands (the drive's losses at rest are small).
+/// The default is a winding at ambient; its first sample finds it long cold, so a monitor
+/// started on a moving car takes that car's load as the winding's.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Heating {
+    /// H_k (1).
+    #[serde(with = "exact::array")]
+    pub h: [f64; N_HEAT],
+    /// Time of the last sample (s), none before the first.
+    pub last: Option<f64>,
+}
+
+impl Heating {
+    /// Advances to `time` with the squared relative force `load` = (F/F_ref)² held since the
+    /// last sample, and returns H. Time that runs backwards or is not finite holds H.
+    pub fn advance(&mut self, time: f64, load: f64) -> [f64; N_HEAT] {
+        if !time.is_finite() {
+            return self.h;
+        }
+        let dt = self.last.map_or(f64::INFINITY, |last| time - last);
+        if dt > 0.0 && load.is_finite() {
+            for (h, tau) in self.h.iter_mut().zip(WINDING_TAUS_S) {
+                let keep = (-dt / tau).exp();
+                *h = keep * *h + (1.0 - keep) * load;
+            }
+        }
+        if dt > 0.0 {
+            self.last = Some(time);
+        }
+        self.h
+    }
+
+    /// Advances over feature row `x` with its prediction (if any): the force of a moving
+    /// sample heats, a standing car cools. Returns H.
+    pub fn advance_row(
+        &mut self,
+        f_ref: f64,
+        x: &FeatureRow,
+        p: Option<&Prediction>,
+    ) -> [f64; N_HEAT] {
+        let load = match p {
+            Some(p) if x.s != 0 && p.f_pred.is_finite() => (p.f_pred / f_ref).powi(2),
+            _ => 0.0,
+        };
+        self.advance(x.time, load)
+    }
+}
+
 /// Sums the samples of one trip into a [`TripEvidence`].
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct TripAccumulator {
@@ -119,19 +247,21 @@ pub struct TripAccumulator {
     xtr: [f64; N_MODES],
     #[serde(with = "exact")]
     rr: f64,
+    #[serde(default)]
+    heat: HeatEvidence,
 }
 
 impl TripAccumulator {
-    /// Adds one moving sample with its prediction and residuals; standstill samples and
-    /// samples without a voltage residual are ignored. `friction` is
-    /// [`friction_reference`] of `model`.
+    /// Adds one moving sample with its prediction, residuals and winding heating H_k
+    /// ([`Heating`]); standstill samples and samples without a voltage residual are ignored.
+    /// `friction` is [`friction_reference`] of `model`.
     pub fn push(
         &mut self,
         model: &HybridModel,
         friction: (f64, f64),
         x: &FeatureRow,
-        p: &Prediction,
-        r: &Residuals,
+        (p, r): (&Prediction, &Residuals),
+        heating: [f64; N_HEAT],
     ) {
         if x.s == 0 || !r.r_u.is_finite() {
             return;
@@ -152,6 +282,7 @@ impl TripAccumulator {
             self.n_f += 1;
         }
         let sig = signature(model, friction, x, p.f_pred);
+        let x_heat = heating.map(|h| sig[MOTOR] * h);
         let mut k = 0;
         for i in 0..N_MODES {
             self.xtr[i] += sig[i] * r.r_u;
@@ -160,6 +291,15 @@ impl TripAccumulator {
                 k += 1;
             }
         }
+        for (l, xl) in x_heat.iter().enumerate() {
+            for i in 0..N_MODES {
+                self.heat.xh[l][i] += sig[i] * xl;
+            }
+            self.heat.hr[l] += xl * r.r_u;
+        }
+        self.heat.hh[0] += x_heat[0] * x_heat[0];
+        self.heat.hh[1] += x_heat[0] * x_heat[1];
+        self.heat.hh[2] += x_heat[1] * x_heat[1];
         self.rr += r.r_u * r.r_u;
     }
 
@@ -196,6 +336,11 @@ impl TripAccumulator {
             xtr: a.xtr.map(|v| v / n),
             rr: a.rr / n,
             plausible,
+            heat: HeatEvidence {
+                xh: a.heat.xh.map(|row| row.map(|v| v / n)),
+                hh: a.heat.hh.map(|v| v / n),
+                hr: a.heat.hr.map(|v| v / n),
+            },
         })
     }
 }
@@ -208,6 +353,8 @@ pub fn trip_evidence(model: &HybridModel, rows: &[FeatureRow]) -> Vec<TripEviden
     let mut acc = TripAccumulator::default();
     let mut cache = PredictionCache::default();
     let friction = friction_reference(model);
+    let f_ref = heating_reference(model);
+    let mut heating = Heating::default();
     let mut open: Option<u32> = None;
     for x in rows {
         if x.trip != open {
@@ -217,7 +364,10 @@ pub fn trip_evidence(model: &HybridModel, rows: &[FeatureRow]) -> Vec<TripEviden
         if x.s != 0 && crate::residual::applicable(x) {
             let p = cache.predict(model, x);
             let r = Residuals::from_prediction(model, x, &p);
-            acc.push(model, friction, x, &p, &r);
+            let h = heating.advance_row(f_ref, x, Some(&p));
+            acc.push(model, friction, x, (&p, &r), h);
+        } else {
+            heating.advance_row(f_ref, x, None);
         }
     }
     out.extend(acc.finish(true));

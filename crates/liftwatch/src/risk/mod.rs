@@ -71,7 +71,10 @@ pub mod sequential;
 mod tracker;
 
 pub(crate) use evidence::spd_inverse;
-pub use evidence::{friction_reference, signature, trip_evidence, TripAccumulator, TripEvidence};
+pub use evidence::{
+    friction_reference, heating_reference, signature, trip_evidence, HeatEvidence, Heating,
+    TripAccumulator, TripEvidence, N_HEAT, WINDING_TAUS_S,
+};
 pub use sequential::{Decision, Sequential, SequentialConfig};
 pub(crate) use tracker::excess;
 pub use tracker::{Accumulator, RiskTracker, Rls, TripAssessment};
@@ -136,11 +139,24 @@ pub struct RiskConfig {
     pub release_ratio: f64,
     /// A mode is named only when its scaled risk is this many times the runner-up's.
     pub dominance: f64,
+    /// β_k: the healthy heating of the winding, the relative rise of Kd per unit of each
+    /// lag H_k of [`Heating`] (Kd·(1 + Σ β_k·H_k)); their sum is the rise at a steady force
+    /// F_ref (copper: 0.39 %/K times the winding's rise there in K). Every trip's evidence is
+    /// taken without it before the risk stage sees it. 0 when the training did not show it
+    /// (and in models fitted before it was kept).
+    #[serde(default)]
+    pub heating: [f64; N_HEAT],
+    /// Standard errors of β_k on the training (1); 0 when β was not identified.
+    #[serde(default)]
+    pub heating_se: [f64; N_HEAT],
     /// The sequential decision ([`sequential`]); absent in models fitted before it existed,
     /// which then decide from R alone.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub sequential: Option<SequentialConfig>,
 }
+
+/// Largest heating coefficient β a model may carry (see [`RiskConfig::heating`]).
+pub const MAX_HEATING: f64 = 10.0;
 
 impl Default for RiskConfig {
     fn default() -> Self {
@@ -165,6 +181,8 @@ impl Default for RiskConfig {
             advisory_modes: [0.0; N_MODES],
             release_ratio: 0.5,
             dominance: 1.5,
+            heating: [0.0; N_HEAT],
+            heating_se: [0.0; N_HEAT],
             sequential: None,
         };
         cfg.advisory = cfg.advisory_floor();
@@ -261,6 +279,12 @@ impl RiskConfig {
             range("risk.prior_info", v, -1e30, 1e30)?;
         }
         range("risk.prior_s2", self.prior_s2, 1e-300, 1e30)?;
+        // Copper gains 0.39 %/K; β = 10 would be a winding 2,500 K over ambient at H = 1.
+        for k in 0..N_HEAT {
+            range("risk.heating", self.heating[k], -MAX_HEATING, MAX_HEATING)?;
+            range("risk.heating_se", self.heating_se[k], 0.0, 1e3)?;
+        }
+        range("risk.heating", self.heating.iter().sum(), 0.0, MAX_HEATING)?;
         range("risk.dominance", self.dominance, 1.0, 1e3)?;
         if let Some(seq) = &self.sequential {
             seq.validate().map_err(|why| Error::InvalidConfig {

@@ -20,6 +20,23 @@ pub(crate) fn synthetic_trips(
     t0: f64,
     fault: Injection,
 ) -> Vec<TripEvidence> {
+    heated_trips(model, seed, days, t0, fault, 0.0)
+}
+
+/// [`synthetic_trips`] on a winding that heats: Kd·(1 + β·H) with H a first-order lag of
+/// 45 min of (F/F_ref)² (none of [`WINDING_TAUS_S`]), the evidence carrying the monitor's
+/// [`Heating`] basis.
+pub(crate) fn heated_trips(
+    model: &HybridModel,
+    seed: u64,
+    days: f64,
+    t0: f64,
+    fault: Injection,
+    beta: f64,
+) -> Vec<TripEvidence> {
+    let mut heating = Heating::default();
+    let mut winding = (0.0f64, f64::NAN);
+    let f_ref = heating_reference(model);
     let mut rng = Rng::new(seed);
     let mut out = Vec::new();
     let mut t = t0;
@@ -52,16 +69,57 @@ pub(crate) fn synthetic_trips(
             x.phase = phase;
             let p = model.predict(&x);
             let sig = signature(model, friction, &x, p.f_pred);
-            let thermal = 0.03 * (2.0 * std::f64::consts::PI * time / 86_400.0).sin() * sig[MOTOR];
+            let h = heating.advance_row(f_ref, &x, Some(&p));
+            let keep = (-(time - winding.1) / 2700.0).exp();
+            let keep = if keep.is_finite() { keep } else { 0.0 };
+            winding = (
+                keep * winding.0 + (1.0 - keep) * (p.f_pred / f_ref).powi(2),
+                time,
+            );
+            let daily = 0.03 * (2.0 * std::f64::consts::PI * time / 86_400.0).sin();
+            let thermal = (daily + beta * winding.0) * sig[MOTOR];
             x.voltage += thermal + fault(time, &sig) + sigma * rng.normal();
             let p = model.predict(&x);
             let r = Residuals::from_prediction(model, &x, &p);
-            acc.push(model, friction, &x, &p, &r);
+            acc.push(model, friction, &x, (&p, &r), h);
         }
         out.extend(acc.finish(true));
         t += 20.0;
     }
     out
+}
+
+#[test]
+fn the_winding_heats_and_cools_with_its_time_constant() {
+    let mut h = Heating::default();
+    // A car running at the reference force: after τ_k lag k holds 1 − 1/e of it.
+    h.advance(0.0, 1.0);
+    assert_eq!(
+        h.h, [1.0; N_HEAT],
+        "the first sample finds a winding long at its load"
+    );
+    for (k, tau) in WINDING_TAUS_S.into_iter().enumerate() {
+        let mut cold = Heating::default();
+        cold.advance(0.0, 0.0);
+        for s in 1..=tau as u32 {
+            cold.advance(f64::from(s), 1.0);
+        }
+        assert!(
+            (cold.h[k] - (1.0 - (-1.0f64).exp())).abs() < 1e-3,
+            "{:?}",
+            cold.h
+        );
+        // Standing still it cools by e in τ_k.
+        let warm = cold.h[k];
+        cold.advance(2.0 * tau, 0.0);
+        assert!((cold.h[k] - warm / std::f64::consts::E).abs() < 1e-9);
+    }
+    // Time that runs backwards or is not finite changes nothing.
+    let mut cold = h;
+    let before = cold;
+    cold.advance(0.0, 5.0);
+    cold.advance(f64::NAN, 5.0);
+    assert_eq!(cold, before);
 }
 
 #[test]

@@ -209,7 +209,8 @@ impl RiskTracker {
         }
     }
 
-    /// Takes one trip of machine evidence (callers pass only plausible trips) and returns the
+    /// Takes one trip of machine evidence (callers pass only plausible trips, with the
+    /// winding's heating taken out: [`TripEvidence::without_heating`]) and returns the
     /// updated assessment.
     pub fn push(&mut self, cfg: &RiskConfig, t: &TripEvidence) -> TripAssessment {
         if !t.usable(cfg) {

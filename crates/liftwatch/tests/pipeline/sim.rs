@@ -145,7 +145,7 @@ fn load_cell_at_rest_reads_the_load_and_feels_acceleration_in_motion() {
 }
 
 #[test]
-fn traffic_mean_load_is_within_iso_25745_range_and_thermal_drift_stays_small() {
+fn traffic_mean_load_is_within_iso_25745_range_and_thermal_drift_is_a_healthy_machines() {
     for (load, speed, floors) in [(630.0, 1.0, 8), (1000.0, 1.75, 20), (1600.0, 2.5, 36)] {
         let cfg = SimConfig::new(Elevator::new(load, speed, floors), 7.0, 14);
         let mut stats = Stats::default();
@@ -159,14 +159,14 @@ fn traffic_mean_load_is_within_iso_25745_range_and_thermal_drift_stays_small() {
         assert_eq!(stats.rows, 7 * 86_400);
         assert_eq!(stats.raw, s.raw_rows);
         assert!(stats.max_speed <= speed + 1e-9);
+        // The winding's heating and the machine room's day move Kd by 5-20 % from a quiet
+        // night to a busy hour (MODEL.md: 10-20 %), never by a fault's size.
+        let (low, high) = s.kd_thermal_range;
+        assert!(low > 0.90 && high < 1.12, "{:?}", s.kd_thermal_range);
         assert!(
-            s.kd_thermal_range.0 > 0.96 && s.kd_thermal_range.1 < 1.04,
-            "{:?}",
+            (0.05..0.20).contains(&(high - low)),
+            "a healthy machine's swing: {:?}",
             s.kd_thermal_range
-        );
-        assert!(
-            s.kd_thermal_range.1 - s.kd_thermal_range.0 > 0.01,
-            "the drift is there"
         );
         assert_eq!(s.dropped_calls, 0);
     }

@@ -228,6 +228,26 @@ pub fn summary(m: &fit::FittedModel, trips: usize, seconds: f64) -> String {
             |z| format!("reads {z:.2} %, checked to ±{:.2} %", m.sensor.load_zero_limit_pct)
         )
     );
+    let heating = &m.risk.heating;
+    let _ = if heating.iter().all(|b| *b == 0.0) {
+        writeln!(
+            s,
+            "winding heating: not shown by this training (taken as none)"
+        )
+    } else {
+        let se = m.risk.heating_se;
+        writeln!(
+            s,
+            "winding heating: Kd +{:.1} % at a steady full-load force (lags of {:.0} and {:.0} min: {:+.1} ± {:.1} %, {:+.1} ± {:.1} %), taken out of every trip",
+            100.0 * heating.iter().sum::<f64>(),
+            liftwatch::risk::WINDING_TAUS_S[0] / 60.0,
+            liftwatch::risk::WINDING_TAUS_S[1] / 60.0,
+            100.0 * heating[0],
+            100.0 * se[0],
+            100.0 * heating[1],
+            100.0 * se[1],
+        )
+    };
     let _ = writeln!(
         s,
         "healthy scales: σ_U {:.2} V, σ_F {:.0} N; risk thresholds: advisory {:.3}, alarm {:.3}",

@@ -10,7 +10,7 @@
 //! ```
 //!
 //! One reused `csv::ByteRecord`; fields are trimmed as bytes and parsed with
-//! `str::parse::<f64>`, so a good row allocates nothing.
+//! [`parse_f64`] (the same bits as `str::parse::<f64>`), so a good row allocates nothing.
 //!
 //! Deviation from the paper: none; the paper does not describe its file format.
 
@@ -25,6 +25,7 @@ use super::{IngestReport, Layout, Signal};
 use crate::error::{Error, Result};
 use crate::limits::LineBounded;
 use crate::sample::Sample;
+use crate::text::parse_f64;
 
 const RAW_HEADER: [&str; 3] = ["time", "signal", "value"];
 const ALIGNED_HEADER: [&str; 7] = [
@@ -48,12 +49,9 @@ fn parse_value(field: &[u8]) -> Value {
     if field.is_empty() {
         return Value::Missing;
     }
-    let Ok(s) = std::str::from_utf8(field) else {
-        return Value::Bad;
-    };
-    match s.parse::<f64>() {
-        Ok(v) if v.is_nan() => Value::Missing,
-        Ok(v) if v.is_finite() => Value::Number(v),
+    match parse_f64(field) {
+        Some(v) if v.is_nan() => Value::Missing,
+        Some(v) if v.is_finite() => Value::Number(v),
         _ => Value::Bad,
     }
 }

@@ -54,7 +54,7 @@ pub enum TimeError {
 /// Parses seconds: a finite number within the accepted range.
 pub fn parse_seconds(s: &str) -> Result<f64, TimeError> {
     // `f64::from_str` also reads "inf" and "NaN"; they fall out by the range test.
-    let t: f64 = s.parse().map_err(|_| TimeError::Unreadable)?;
+    let t = crate::text::parse_f64(s.as_bytes()).ok_or(TimeError::Unreadable)?;
     check_range(t)
 }
 

@@ -20,7 +20,7 @@ use std::path::{Path, PathBuf};
 
 use ::csv::{ByteRecord, ReaderBuilder};
 
-use super::time::{parse_time, TimeError, TimeForm};
+use super::time::{parse_time_field, TimeError, TimeForm};
 use super::{IngestReport, Layout, Signal};
 use crate::error::{Error, Result};
 use crate::limits::LineBounded;
@@ -218,11 +218,7 @@ impl<R: Read> RowReader<R> {
     /// Reads the time field of the current row, counting it as bad when unreadable.
     fn time(&mut self, report: &mut IngestReport, line: u64) -> Option<f64> {
         let field = self.rec[0].trim_ascii();
-        let parsed = match std::str::from_utf8(field) {
-            Ok(s) => parse_time(s, &mut self.form),
-            Err(_) => Err(TimeError::Unreadable),
-        };
-        match parsed {
+        match parse_time_field(field, &mut self.form) {
             Ok(t) => Some(t),
             Err(err) => {
                 let form = self.form;

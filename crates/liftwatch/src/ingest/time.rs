@@ -106,6 +106,20 @@ pub fn parse_time(s: &str, form: &mut Option<TimeForm>) -> Result<f64, TimeError
     }
 }
 
+/// [`parse_time`] of a field's bytes: a plain decimal in a file of seconds is read without
+/// the UTF-8 check and the form tests, with the same result.
+pub fn parse_time_field(field: &[u8], form: &mut Option<TimeForm>) -> Result<f64, TimeError> {
+    if *form == Some(TimeForm::Seconds) {
+        if let Some(t) = crate::text::parse_decimal(field) {
+            return check_range(t);
+        }
+    }
+    match std::str::from_utf8(field) {
+        Ok(s) => parse_time(s, form),
+        Err(_) => Err(TimeError::Unreadable),
+    }
+}
+
 /// Times at or after this (s) are read as Unix time and shown as UTC dates: 1e8 s is
 /// 3 Mar 1973, and a relative clock (seconds since a logger or a simulation started) stays
 /// below it for its first three years.

@@ -63,14 +63,7 @@ pub fn push_fixed(out: &mut Vec<u8>, v: f64, dec: usize) {
         i -= 1;
         buf[i] = b'.';
     }
-    loop {
-        i -= 1;
-        buf[i] = b'0' + (m % 10) as u8;
-        m /= 10;
-        if m == 0 {
-            break;
-        }
-    }
+    i = put_whole(&mut buf, i, m);
     if v < 0.0 && n != 0 {
         i -= 1;
         buf[i] = b'-';
@@ -83,19 +76,24 @@ pub fn push_fixed(out: &mut Vec<u8>, v: f64, dec: usize) {
     }
 }
 
-/// Appends the decimal digits of `n`.
-pub fn push_u64(out: &mut Vec<u8>, mut n: u64) {
-    let mut digits = [0u8; 20];
-    let mut i = digits.len();
+/// Writes the digits of `m` into `buf` right to left, ending before `end`; returns where
+/// they start.
+fn put_whole(buf: &mut [u8; 32], mut end: usize, mut m: u64) -> usize {
     loop {
-        i -= 1;
-        digits[i] = b'0' + (n % 10) as u8;
-        n /= 10;
-        if n == 0 {
-            break;
+        end -= 1;
+        buf[end] = b'0' + (m % 10) as u8;
+        m /= 10;
+        if m == 0 {
+            return end;
         }
     }
-    out.extend_from_slice(&digits[i..]);
+}
+
+/// Appends the decimal digits of `n`.
+pub fn push_u64(out: &mut Vec<u8>, n: u64) {
+    let mut buf = [0u8; 32];
+    let i = put_whole(&mut buf, 32, n);
+    out.extend_from_slice(&buf[i..]);
 }
 
 /// Appends `t` exactly as `format!("{t}")` writes it (the shortest text that reads back

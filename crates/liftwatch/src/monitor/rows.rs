@@ -137,14 +137,24 @@ fn risks_and_level(line: &mut Vec<u8>, r: &MonitorRow) {
     line.extend_from_slice(r.level.as_str().as_bytes());
 }
 
-/// Appends the three drift columns, each after a comma.
+/// Appends each value at its precision, each after a comma.
+fn fields(line: &mut Vec<u8>, values: &[(f64, usize)]) {
+    for &(x, decimals) in values {
+        line.push(b',');
+        push_fixed(line, x, decimals);
+    }
+}
+
+/// Appends the three drift columns, each after a comma, and ends the line.
 fn drifts(line: &mut Vec<u8>, r: &MonitorRow) {
-    line.push(b',');
-    push_fixed(line, r.kd_drift_pct, 3);
-    line.push(b',');
-    push_fixed(line, r.friction_drift_pct, 2);
-    line.push(b',');
-    push_fixed(line, r.brake_drag_n, 1);
+    fields(
+        line,
+        &[
+            (r.kd_drift_pct, 3),
+            (r.friction_drift_pct, 2),
+            (r.brake_drag_n, 1),
+        ],
+    );
     line.push(b'\n');
 }
 
@@ -188,14 +198,10 @@ impl<W: Write> RowWriter<W> {
         let line = &mut self.line;
         line.clear();
         self.time.push(line, r.time);
-        line.push(b',');
-        push_fixed(line, r.r_voltage, 3);
-        line.push(b',');
-        push_fixed(line, r.r_force, 1);
+        fields(line, &[(r.r_voltage, 3), (r.r_force, 1)]);
         line.push(b',');
         risks_and_level(line, r);
-        line.push(b',');
-        push_fixed(line, r.e, 3);
+        fields(line, &[(r.e, 3)]);
         drifts(line, r);
         self.out.write_all(line)
     }
@@ -246,20 +252,15 @@ impl<W: Write> TripRowWriter<W> {
         self.time.push(line, t.start_time);
         line.push(b',');
         self.time.push(line, t.end_time);
-        let _ = write!(line, ",{},", t.direction);
-        push_fixed(line, t.from_floor, 0);
-        line.push(b',');
-        push_fixed(line, t.to_floor, 0);
-        line.push(b',');
-        push_fixed(line, 100.0 * t.load_ratio, 1);
+        let _ = write!(line, ",{}", t.direction);
+        fields(
+            line,
+            &[(t.from_floor, 0), (t.to_floor, 0), (100.0 * t.load_ratio, 1)],
+        );
         line.push(b',');
         push_u64(line, u64::from(t.samples));
-        line.push(b',');
-        push_fixed(line, s.mean_r_voltage, 3);
-        line.push(b',');
-        push_fixed(line, s.mean_r_force, 1);
-        line.push(b',');
-        push_fixed(line, s.mean_e, 3);
+        let means = [(s.mean_r_voltage, 3), (s.mean_r_force, 1), (s.mean_e, 3)];
+        fields(line, &means);
         line.push(b',');
         risks_and_level(line, r);
         line.push(b',');

@@ -2,7 +2,7 @@
 //! features, residuals with one network pass per moving sample, per-trip risk, levels,
 //! sensor checks) on aligned samples held in memory. Prints samples/s (median of 3 runs)
 //! for both methods, the cost of the residual stage alone for moving and standstill
-//! samples, and the size of a saved monitor state.
+//! samples, the output rows' CSV formatting alone, and the size of a saved monitor state.
 //!
 //! Run with `cargo bench -p liftwatch --bench monitor` (release profile). The telemetry is
 //! two simulated days of a 1000 kg, 1.75 m/s, 26-floor elevator (seed 1).
@@ -13,7 +13,7 @@ use std::time::Instant;
 use liftwatch::features::{FeatureConfig, FeatureTracker};
 use liftwatch::fit::FittedModel;
 use liftwatch::model::{HybridModel, PhysParams, ResidualNet, ResidualScales};
-use liftwatch::monitor::{Method, Monitor};
+use liftwatch::monitor::{Method, Monitor, RowWriter};
 use liftwatch::residual::PredictionCache;
 use liftwatch::rng::Rng;
 use liftwatch::sim::{simulate, SimConfig};
@@ -122,6 +122,28 @@ fn main() {
             secs / k * 1e9
         );
     }
+
+    // The output rows as CSV (DATA.md §4), written into memory: the formatting alone.
+    let mut m = Monitor::new(&model, Method::Pinn);
+    let mut out_rows: Vec<_> = samples.iter().filter_map(|x| m.push(x)).collect();
+    out_rows.extend(m.finish());
+    let mut bytes = 0;
+    let secs = median3(|| {
+        let start = Instant::now();
+        let mut w = RowWriter::new(Vec::with_capacity(200 << 20)).expect("a Vec takes a header");
+        for r in &out_rows {
+            w.write(r).expect("a Vec takes every row");
+        }
+        bytes = black_box(w.into_inner().expect("a Vec flushes")).len();
+        start.elapsed().as_secs_f64()
+    });
+    let k = out_rows.len() as f64;
+    println!(
+        "rows written as CSV: {:.1} M rows/s, {:.0} ns/row, {:.0} bytes/row",
+        k / secs / 1e6,
+        secs / k * 1e9,
+        bytes as f64 / k
+    );
 
     let mut m = Monitor::new(&model, Method::Pinn);
     for x in &samples {

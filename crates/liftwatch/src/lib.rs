@@ -46,6 +46,7 @@ pub mod exact;
 pub mod linalg;
 pub mod rng;
 pub mod stats;
+pub mod text;
 pub mod sample;
 pub mod limits;
 pub mod elevator;

@@ -10,7 +10,7 @@
 //! ```
 //!
 //! One reused `csv::ByteRecord`; fields are trimmed as bytes and parsed with
-//! `str::parse::<f64>`, so a good row allocates nothing.
+//! [`parse_f64`] (the same bits as `str::parse::<f64>`), so a good row allocates nothing.
 //!
 //! Deviation from the paper: none; the paper does not describe its file format.
 
@@ -20,11 +20,12 @@ use std::path::{Path, PathBuf};
 
 use ::csv::{ByteRecord, ReaderBuilder};
 
-use super::time::{parse_time, TimeError, TimeForm};
+use super::time::{parse_time_field, TimeError, TimeForm};
 use super::{IngestReport, Layout, Signal};
 use crate::error::{Error, Result};
 use crate::limits::LineBounded;
 use crate::sample::Sample;
+use crate::text::parse_f64;
 
 const RAW_HEADER: [&str; 3] = ["time", "signal", "value"];
 const ALIGNED_HEADER: [&str; 7] = [
@@ -48,12 +49,9 @@ fn parse_value(field: &[u8]) -> Value {
     if field.is_empty() {
         return Value::Missing;
     }
-    let Ok(s) = std::str::from_utf8(field) else {
-        return Value::Bad;
-    };
-    match s.parse::<f64>() {
-        Ok(v) if v.is_nan() => Value::Missing,
-        Ok(v) if v.is_finite() => Value::Number(v),
+    match parse_f64(field) {
+        Some(v) if v.is_nan() => Value::Missing,
+        Some(v) if v.is_finite() => Value::Number(v),
         _ => Value::Bad,
     }
 }
@@ -220,11 +218,7 @@ impl<R: Read> RowReader<R> {
     /// Reads the time field of the current row, counting it as bad when unreadable.
     fn time(&mut self, report: &mut IngestReport, line: u64) -> Option<f64> {
         let field = self.rec[0].trim_ascii();
-        let parsed = match std::str::from_utf8(field) {
-            Ok(s) => parse_time(s, &mut self.form),
-            Err(_) => Err(TimeError::Unreadable),
-        };
-        match parsed {
+        match parse_time_field(field, &mut self.form) {
             Ok(t) => Some(t),
             Err(err) => {
                 let form = self.form;

@@ -54,7 +54,7 @@ pub enum TimeError {
 /// Parses seconds: a finite number within the accepted range.
 pub fn parse_seconds(s: &str) -> Result<f64, TimeError> {
     // `f64::from_str` also reads "inf" and "NaN"; they fall out by the range test.
-    let t: f64 = s.parse().map_err(|_| TimeError::Unreadable)?;
+    let t = crate::text::parse_f64(s.as_bytes()).ok_or(TimeError::Unreadable)?;
     check_range(t)
 }
 
@@ -103,6 +103,20 @@ pub fn parse_time(s: &str, form: &mut Option<TimeForm>) -> Result<f64, TimeError
                 Err(TimeError::Unreadable)
             }
         }
+    }
+}
+
+/// [`parse_time`] of a field's bytes: a plain decimal in a file of seconds is read without
+/// the UTF-8 check and the form tests, with the same result.
+pub fn parse_time_field(field: &[u8], form: &mut Option<TimeForm>) -> Result<f64, TimeError> {
+    if *form == Some(TimeForm::Seconds) {
+        if let Some(t) = crate::text::parse_decimal(field) {
+            return check_range(t);
+        }
+    }
+    match std::str::from_utf8(field) {
+        Ok(s) => parse_time(s, form),
+        Err(_) => Err(TimeError::Unreadable),
     }
 }
 

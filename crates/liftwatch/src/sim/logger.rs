@@ -19,6 +19,7 @@ use std::path::{Path, PathBuf};
 
 use crate::error::{Error, Result};
 use crate::rng::Rng;
+use crate::text::push_fixed;
 
 use super::TruthRow;
 
@@ -359,54 +360,6 @@ impl AlignedCsvWriter {
     }
 }
 
-/// Appends `v` with `dec` decimals (at most 9); nothing for a non-finite value (a missing field).
-///
-/// Integer arithmetic instead of `format!`: the writers spend most of their time here, and a
-/// month of telemetry is 40 M numbers. Values beyond ±9e9 fall back to `format!`.
-pub fn push_fixed(out: &mut Vec<u8>, v: f64, dec: usize) {
-    if !v.is_finite() {
-        return;
-    }
-    let dec = dec.min(9);
-    let scale = 10u64.pow(dec as u32);
-    let scaled = (v.abs() * scale as f64).round();
-    if v.abs() >= 9e9 || scaled >= 9e18 {
-        out.extend_from_slice(format!("{v:.dec$}").as_bytes());
-        return;
-    }
-    let n = scaled as u64;
-    if v < 0.0 && n != 0 {
-        out.push(b'-');
-    }
-    push_u64(out, n / scale);
-    if dec > 0 {
-        out.push(b'.');
-        let frac = n % scale;
-        // Leading zeros of the fraction: one per power of ten above it.
-        let mut p = scale / 10;
-        while p > 1 && frac < p {
-            out.push(b'0');
-            p /= 10;
-        }
-        push_u64(out, frac);
-    }
-}
-
-/// Appends the decimal digits of `n`.
-fn push_u64(out: &mut Vec<u8>, mut n: u64) {
-    let mut digits = [0u8; 20];
-    let mut i = digits.len();
-    loop {
-        i -= 1;
-        digits[i] = b'0' + (n % 10) as u8;
-        n /= 10;
-        if n == 0 {
-            break;
-        }
-    }
-    out.extend_from_slice(&digits[i..]);
-}
-
 fn csv_error(path: &Path, e: csv::Error) -> Error {
     Error::io(path, std::io::Error::other(e.to_string()))
 }
@@ -414,41 +367,6 @@ fn csv_error(path: &Path, e: csv::Error) -> Error {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn fixed_point_text_matches_the_standard_formatter() {
-        let mut rng = Rng::new(7);
-        for k in 0..20_000 {
-            let v = match k % 4 {
-                0 => rng.uniform(-1.0, 1.0),
-                1 => rng.uniform(-500.0, 500.0),
-                2 => rng.uniform(0.0, 3e6),
-                _ => (rng.uniform(-50.0, 50.0) * 4.0).round() / 4.0,
-            };
-            for dec in [0, 1, 2, 3, 4, 7] {
-                let mut out = Vec::new();
-                push_fixed(&mut out, v, dec);
-                let got: f64 = String::from_utf8(out).unwrap().parse().unwrap();
-                // Within half a unit of the last digit, as `format!` would be.
-                let half = 0.5 * 10f64.powi(-(dec as i32));
-                assert!(
-                    (got - v).abs() <= half * (1.0 + 1e-6) + 1e-9 * v.abs(),
-                    "{v} {dec} -> {got}"
-                );
-            }
-        }
-        let text = |v: f64, d: usize| {
-            let mut o = Vec::new();
-            push_fixed(&mut o, v, d);
-            String::from_utf8(o).unwrap()
-        };
-        assert_eq!(text(-0.0004, 3), "0.000");
-        assert_eq!(text(-1.25, 2), "-1.25");
-        assert_eq!(text(0.05, 3), "0.050");
-        assert_eq!(text(12.0, 0), "12");
-        assert_eq!(text(f64::NAN, 2), "");
-        assert_eq!(text(1e12, 1), "1000000000000.0");
-    }
 
     #[test]
     fn clock_ticks_about_once_a_second_in_order() {

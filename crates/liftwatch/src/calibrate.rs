@@ -231,9 +231,12 @@ pub fn calibrate(healthy: &[TripEvidence], settings: &CalibrationSettings) -> Re
         ));
     }
     // The heating is identified first and taken out of the trips, as the monitor takes it out
-    // of every trip: everything below is calibrated on what is left.
+    // of every trip: everything below is calibrated on what is left. Each calendar day has it
+    // taken out with the β of the other days, as a new day will: β fitted on a day itself
+    // explains that day's own wander, and thresholds bootstrapped from such days were too low
+    // for the days after the training.
     let (heating, heating_se) = identify_heating(&trips);
-    let trips: Vec<TripEvidence> = trips.iter().map(|t| t.without_heating(&heating)).collect();
+    let trips = without_heating_out_of_day(&trips, &heating);
     let longest = trips.iter().map(|t| t.end - t.start).fold(0.0, f64::max);
     sensor.max_trip_s = (2.0 * longest + 20.0).max(sensor.max_trip_s);
     cfg.trip_spread_u = fit_spread(trips.iter().map(|t| (t.mean_e_u, t.n)));
@@ -376,6 +379,31 @@ fn identify_heating(trips: &[TripEvidence]) -> ([f64; N_HEAT], [f64; N_HEAT]) {
     } else {
         none
     }
+}
+
+/// `trips` with the heating taken out, each calendar day's with β identified on the other
+/// days ([`identify_heating`]); a training of one day, or a day whose complement does not
+/// show the heating, uses `all` (the β of the whole training).
+fn without_heating_out_of_day(trips: &[TripEvidence], all: &[f64; N_HEAT]) -> Vec<TripEvidence> {
+    let day = |t: &TripEvidence| (t.start / 86_400.0).floor();
+    let mut out = Vec::with_capacity(trips.len());
+    let mut i = 0;
+    while i < trips.len() {
+        let d = day(&trips[i]);
+        let end = i + trips[i..].iter().take_while(|t| day(t) == d).count();
+        let others: Vec<TripEvidence> = trips[..i].iter().chain(&trips[end..]).cloned().collect();
+        let beta = if all.iter().all(|b| *b == 0.0) || others.len() < MIN_HEALTHY_TRIPS {
+            *all
+        } else {
+            match identify_heating(&others) {
+                (b, _) if b.iter().any(|v| *v != 0.0) => b,
+                _ => *all,
+            }
+        };
+        out.extend(trips[i..end].iter().map(|t| t.without_heating(&beta)));
+        i = end;
+    }
+    out
 }
 
 /// Least-squares fit of mean² ≈ a + b/n with a, b ≥ small positive floors.

@@ -255,7 +255,11 @@ impl<W: Write> TripRowWriter<W> {
         let _ = write!(line, ",{}", t.direction);
         fields(
             line,
-            &[(t.from_floor, 0), (t.to_floor, 0), (100.0 * t.load_ratio, 1)],
+            &[
+                (t.from_floor, 0),
+                (t.to_floor, 0),
+                (100.0 * t.load_ratio, 1),
+            ],
         );
         line.push(b',');
         push_u64(line, u64::from(t.samples));

@@ -315,16 +315,26 @@ fn fleet_run(default_n: f64, default_s: f64, default_speedup: f64) {
     // Caught up: every elevator's checkpoint covers its last message.
     let t1 = Instant::now();
     let progress = loop {
-        let p = gw.progress().unwrap();
+        // A request may time out while the client moves off the killed server.
+        let p = gw.progress().unwrap_or_default();
         if last_seq.iter().all(|(id, s)| p.get(id).is_some_and(|x| x.0 >= *s)) {
             break p;
         }
-        assert!(t1.elapsed() < PATIENCE * 2, "the workers did not catch up");
+        if t1.elapsed() > PATIENCE * 2 {
+            let behind: Vec<String> = last_seq
+                .iter()
+                .filter(|(id, s)| !p.get(*id).is_some_and(|x| x.0 >= **s))
+                .map(|(id, s)| format!("{id} {:?}<{s}", p.get(id)))
+                .take(10)
+                .collect();
+            let h: Vec<Value> = survivors.iter().map(health).collect();
+            panic!("the workers did not catch up: {behind:?}; {h:?}");
+        }
         std::thread::sleep(Duration::from_millis(250));
     };
     let caught_up = t1.elapsed().as_secs_f64();
     let rss: f64 = survivors.iter().map(|w| rss_kb(w.child.id())).sum::<f64>() - rss0[1..].iter().sum::<f64>();
-    let outputs = gw.outputs().unwrap();
+    let outputs = gw.outputs().expect("the outputs stream reads");
     let got = risk_rows(&dir, &header(&dir), &outputs);
     let ack_time: HashMap<u64, f64> = acks.iter().map(|(_, s, t)| (*s, *t)).collect();
     let mut lat = Vec::new();

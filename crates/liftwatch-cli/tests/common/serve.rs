@@ -88,9 +88,16 @@ impl Server {
             }
         };
         // Drain the logs so the server never blocks on a full pipe.
+        // LIFTWATCH_TEST_LOGS=1 passes them on.
+        let show = std::env::var_os("LIFTWATCH_TEST_LOGS").is_some();
         std::thread::spawn(move || {
-            let mut sink = Vec::new();
-            let _ = err.read_to_end(&mut sink);
+            let mut line = String::new();
+            while err.read_line(&mut line).unwrap_or(0) > 0 {
+                if show {
+                    eprint!("{line}");
+                }
+                line.clear();
+            }
         });
         Server { child, port }
     }

@@ -334,11 +334,19 @@ impl Bus {
 
     /// Renews the lease of partition `p` held at `rev`: the new revision, or `None` when it was
     /// lost (expired and taken, or the revision moved on).
-    pub async fn renew(&self, p: u32, w: &str, rev: u64) -> Option<u64> {
-        self.leases
+    ///
+    /// # Errors
+    /// One line when the server did not answer.
+    pub async fn renew(&self, p: u32, w: &str, rev: u64) -> Result<Option<u64>, String> {
+        match self
+            .leases
             .update(format!("part.{p}"), Bytes::from(w.to_string()), rev)
             .await
-            .ok()
+        {
+            Ok(r) => Ok(Some(r)),
+            Err(e) if e.kind() == kv::UpdateErrorKind::WrongLastRevision => Ok(None),
+            Err(e) => Err(line("lease", e)),
+        }
     }
 
     /// Gives the lease of partition `p` up (only if still held at `rev`).
@@ -474,14 +482,18 @@ impl Bus {
     // ── telemetry in (a gateway) ────────────────────────────────────────────────────────
 
     /// Publishes one telemetry body of elevator `id` and waits until the stream stored it:
-    /// its stream sequence.
+    /// its stream sequence. Its message id is the elevator and the digest of the body, so a
+    /// retry within the stream's duplicate window (2 min) is not stored twice.
     ///
     /// # Errors
     /// One line from the server (no stream answers: the server has no partition mapping).
     pub async fn publish_telemetry(&self, id: &str, body: Bytes) -> Result<u64, String> {
+        // The same body sent again (a retry after a lost acknowledgement) is stored once.
+        let mut h = HeaderMap::new();
+        h.insert(async_nats::header::NATS_MESSAGE_ID, format!("{id}:{}", digest(&body)).as_str());
         let ack = self
             .js
-            .publish(telemetry_subject(id), body)
+            .publish_with_headers(telemetry_subject(id), h, body)
             .await
             .map_err(|e| line("telemetry", e))?
             .await

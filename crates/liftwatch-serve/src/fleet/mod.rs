@@ -18,7 +18,8 @@
 //! ids, which the stream stores once. A worker that lost a lease (stalled longer than it) finds
 //! the checkpoint revision moved on, and drops the partition without writing.
 //!
-//! Ownership: every worker renews its heartbeat and leases every third of `nats_lease_s`, and
+//! Ownership: every worker renews its heartbeat and leases every third of `nats_lease_s` (a
+//! task of its own, so a long turn never lets a lease lapse), and
 //! holds ⌈P / live workers⌉ partitions at most: a joining worker makes the others give the
 //! surplus up, a dead one's leases expire and the others take them over.
 //!
@@ -87,9 +88,16 @@ struct Elevator {
     dirty: bool,
 }
 
+/// The leases this worker holds (partition → revision), renewed by their own task so that a
+/// long turn of the worker never lets one expire; a lost one is reported in `lost`.
+#[derive(Default)]
+struct Leases {
+    held: tokio::sync::Mutex<HashMap<u32, u64>>,
+    lost: Mutex<Vec<u32>>,
+}
+
 /// A partition this worker holds.
 struct Part {
-    lease_rev: u64,
     consumer: bus::Partition,
     last: Option<Position>,
     ids: HashSet<String>,
@@ -123,6 +131,7 @@ struct Fleet {
     elevators: HashMap<String, Elevator>,
     models: HashMap<String, Arc<FittedModel>>,
     active: Arc<Mutex<HashMap<String, (String, u64)>>>,
+    leases: Arc<Leases>,
     stats: Arc<Stats>,
 }
 
@@ -180,6 +189,7 @@ pub fn serve(cfg: Config, token: Option<String>) -> Result<(), String> {
             elevators: HashMap::new(),
             models: HashMap::new(),
             active: Arc::new(Mutex::new(HashMap::new())),
+            leases: Arc::new(Leases::default()),
             stats,
         };
         fleet.run().await
@@ -259,9 +269,17 @@ impl Fleet {
         });
         let mut stop = Box::pin(crate::shutdown_signal());
         let tick = Duration::from_secs_f64(self.cfg.nats_lease_s / 3.0);
+        tokio::spawn(renew(self.bus.clone(), self.name.clone(), self.leases.clone(), tick));
         let every = Duration::from_secs_f64(self.cfg.checkpoint_every_s);
         let (mut last_tick, mut last_ckpt) = (Instant::now() - tick, Instant::now());
         loop {
+            let lost: Vec<u32> = std::mem::take(
+                &mut *self.leases.lost.lock().unwrap_or_else(std::sync::PoisonError::into_inner),
+            );
+            for p in lost {
+                log("warn", &format!("partition {p}: lease lost; dropped"));
+                self.lose(p);
+            }
             if last_tick.elapsed() >= tick {
                 last_tick = Instant::now();
                 if let Err(e) = self.ownership().await {
@@ -275,8 +293,8 @@ impl Fleet {
                     r = self.turn(p) => match r {
                         Ok(n) => got += n,
                         Err(e) => {
-                            log("warn", &format!("partition {p}: {e}; taken anew"));
-                            self.lose(p);
+                            log("warn", &format!("partition {p}: {e}; given up, to be taken anew"));
+                            self.give_up(p).await;
                         }
                     },
                     () = &mut stop => {
@@ -308,35 +326,30 @@ impl Fleet {
         log("info", "shutting down: final checkpoint, partitions given up");
         for p in self.parts.keys().copied().collect::<Vec<_>>() {
             self.checkpoint(p).await;
-            if let Some(part) = self.parts.remove(&p) {
-                self.bus.release(p, part.lease_rev).await;
-            }
+            self.give_up(p).await;
         }
         self.bus.flush().await;
     }
 
-    /// Heartbeat, lease renewals, and the fair share: give the surplus up, take free ones.
+    /// Gives partition `p` up: its lease is released (if still held), its elevators forgotten.
+    async fn give_up(&mut self, p: u32) {
+        let rev = self.leases.held.lock().await.remove(&p);
+        if let Some(rev) = rev {
+            self.bus.release(p, rev).await;
+        }
+        self.lose(p);
+    }
+
+    /// The fair share: give the surplus up, take free partitions.
     async fn ownership(&mut self) -> Result<(), String> {
         self.bus.heartbeat(&self.name).await?;
-        for p in self.parts.keys().copied().collect::<Vec<_>>() {
-            let rev = self.parts[&p].lease_rev;
-            match self.bus.renew(p, &self.name, rev).await {
-                Some(r) => self.parts.get_mut(&p).expect("listed").lease_rev = r,
-                None => {
-                    log("warn", &format!("partition {p}: lease lost; dropped"));
-                    self.lose(p);
-                }
-            }
-        }
         let (workers, taken) = self.bus.members().await?;
         let parts = self.cfg.nats_partitions;
         let share = parts.div_ceil(workers.len().max(1) as u32) as usize;
         while self.parts.len() > share {
             let p = *self.parts.keys().next_back().expect("more than the share");
             self.checkpoint(p).await;
-            let part = self.parts.remove(&p).expect("listed");
-            self.drop_elevators(&part);
-            self.bus.release(p, part.lease_rev).await;
+            self.give_up(p).await;
             log("info", &format!("partition {p}: given up ({} workers)", workers.len()));
         }
         let taken: HashSet<u32> = taken.into_iter().collect();
@@ -347,15 +360,21 @@ impl Fleet {
             if taken.contains(&p) || self.parts.contains_key(&p) {
                 continue;
             }
+            let t0 = Instant::now();
             let Some(rev) = self.bus.acquire(p, &self.name).await? else {
                 continue;
             };
-            let t0 = Instant::now();
-            let consumer = self.bus.open(p).await?;
+            self.leases.held.lock().await.insert(p, rev);
+            let consumer = match self.bus.open(p).await {
+                Ok(c) => c,
+                Err(e) => {
+                    self.give_up(p).await;
+                    return Err(e);
+                }
+            };
             self.parts.insert(
                 p,
                 Part {
-                    lease_rev: rev,
                     consumer,
                     last: None,
                     ids: HashSet::new(),
@@ -374,8 +393,8 @@ impl Fleet {
         Ok(())
     }
 
-    /// Forgets partition `p` without writing anything (its lease is gone or its log failed):
-    /// its next owner resumes from the checkpoints.
+    /// Forgets partition `p` without writing anything (its lease is gone, or given up after its
+    /// checkpoint): its next owner resumes from the checkpoints.
     fn lose(&mut self, p: u32) {
         if let Some(part) = self.parts.remove(&p) {
             self.drop_elevators(&part);
@@ -602,7 +621,7 @@ impl Fleet {
         }
         if fenced {
             log("warn", &format!("partition {p}: another worker wrote its checkpoints; dropped"));
-            self.lose(p);
+            self.give_up(p).await;
             return;
         }
         let part = self.parts.get_mut(&p).expect("held");
@@ -611,6 +630,36 @@ impl Fleet {
                 log("warn", &format!("partition {p}: commit failed, the replay is longer: {e}"));
             }
         }
+    }
+}
+
+/// The lease task: every `tick`, the worker's heartbeat and each held lease renewed (compare and
+/// swap on its revision); a lease that cannot be renewed is reported lost.
+async fn renew(bus: Arc<Bus>, name: String, leases: Arc<Leases>, tick: Duration) {
+    loop {
+        tokio::time::sleep(tick).await;
+        if let Err(e) = bus.heartbeat(&name).await {
+            log("warn", &format!("heartbeat: {e}"));
+        }
+        let mut held = leases.held.lock().await;
+        let mut lost = Vec::new();
+        for (p, rev) in held.iter_mut() {
+            match bus.renew(*p, &name, *rev).await {
+                Ok(Some(r)) => *rev = r,
+                Ok(None) => lost.push(*p),
+                // The server did not answer: the lease may still be ours; tried again next tick.
+                Err(e) => log("warn", &format!("partition {p}: lease not renewed: {e}")),
+            }
+        }
+        for p in &lost {
+            held.remove(p);
+        }
+        drop(held);
+        leases
+            .lost
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+            .extend(lost);
     }
 }
 

@@ -10,7 +10,7 @@ use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 use common::serve::*;
-use common::Dir;
+use common::{env_num, Dir};
 use serde_json::Value;
 
 /// One simulated healthy day (seed 5) into `healthy` and its model (150 epochs), the start of
@@ -485,14 +485,6 @@ fn bad_input_is_refused_with_a_4xx_and_changes_nothing() {
     assert!(body.contains("without a token"), "{body}");
 }
 
-/// A number from the environment, or `default`.
-fn env_num(name: &str, default: f64) -> f64 {
-    std::env::var(name)
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(default)
-}
-
 /// `liftwatch_NAME{elevator="ID"} VALUE` lines of a metrics text, per elevator.
 fn metric(text: &str, name: &str) -> std::collections::HashMap<String, f64> {
     let prefix = format!("{name}{{elevator=\"");
@@ -525,18 +517,7 @@ fn load_many_elevators_at_one_hertz() {
     let healthy = dir.path("healthy");
     let model = healthy_day_and_model(&dir, &healthy);
     let text = std::fs::read_to_string(healthy.join("raw.csv")).unwrap();
-    let mut batches: Vec<String> = Vec::new();
-    let mut start = f64::NAN;
-    for r in text.lines().skip(1) {
-        let t: f64 = r.split(',').next().unwrap().parse().unwrap();
-        if batches.is_empty() || t >= start + PERIOD_S {
-            batches.push("time,signal,value\n".into());
-            start = t;
-        }
-        let b = batches.last_mut().unwrap();
-        b.push_str(r);
-        b.push('\n');
-    }
+    let batches = common::batches(&text, PERIOD_S);
     let per_elevator = ((seconds / PERIOD_S) as usize).min(batches.len());
     let batches = std::sync::Arc::new(batches[..per_elevator].to_vec());
     let rows_each: usize = batches.iter().map(|b| b.lines().count() - 1).sum();
@@ -552,13 +533,7 @@ fn load_many_elevators_at_one_hertz() {
                 .unwrap(),
         ],
     );
-    let rss = |pid: u32| -> f64 {
-        let st = std::fs::read_to_string(format!("/proc/{pid}/status")).unwrap_or_default();
-        st.lines()
-            .find_map(|l| l.strip_prefix("VmRSS:"))
-            .and_then(|v| v.trim().trim_end_matches("kB").trim().parse::<f64>().ok())
-            .unwrap_or(f64::NAN)
-    };
+    let rss = common::rss_kb;
     let rss_before = rss(server.child.id());
     let body = std::fs::read(&model).unwrap();
     for i in 0..n {

@@ -149,7 +149,6 @@ impl Bus {
         let client = async_nats::ConnectOptions::new()
             .name(name)
             .request_timeout(Some(REQUEST_TIMEOUT))
-            .retry_on_initial_connect()
             .connect(servers)
             .await
             .map_err(|e| line(&format!("nats {urls}"), e))?;

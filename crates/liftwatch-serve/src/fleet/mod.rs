@@ -256,11 +256,7 @@ impl Fleet {
             while let Some((id, d, rev)) = watch.next().await {
                 let mut a = active.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
                 match d {
-                    Some(d) => {
-                        if a.get(&id).is_none_or(|x| x.1 < rev) {
-                            a.insert(id, (d, rev));
-                        }
-                    }
+                    Some(d) => note_active(&mut a, &id, d, rev),
                     None => {
                         a.remove(&id);
                     }
@@ -525,9 +521,7 @@ impl Fleet {
         };
         if let Some((d, rev)) = self.bus.active_model(id).await? {
             let mut a = self.active.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-            if a.get(id).is_none_or(|x| x.1 < rev) {
-                a.insert(id.to_string(), (d, rev));
-            }
+            note_active(&mut a, id, d, rev);
         }
         self.elevators.insert(id.to_string(), e);
         self.stats
@@ -633,6 +627,14 @@ impl Fleet {
     }
 }
 
+/// Notes model `d` (version `rev`) as the active one of `id` unless a later one is known: the
+/// watch and the lookup at an elevator's load may come in either order.
+fn note_active(a: &mut HashMap<String, (String, u64)>, id: &str, d: String, rev: u64) {
+    if a.get(id).map_or(true, |x| x.1 < rev) {
+        a.insert(id.to_string(), (d, rev));
+    }
+}
+
 /// The lease task: every `tick`, the worker's heartbeat and each held lease renewed (compare and
 /// swap on its revision); a lease that cannot be renewed is reported lost.
 async fn renew(bus: Arc<Bus>, name: String, leases: Arc<Leases>, tick: Duration) {
@@ -666,26 +668,65 @@ async fn renew(bus: Arc<Bus>, name: String, leases: Arc<Leases>, tick: Duration)
 /// The outputs of an elevator since its checkpoint, each with an id a replay repeats:
 /// `{id}:r:{seq}:{k}` for the k-th trip row of telemetry record `seq`, `{id}:e:…` for events.
 fn outputs(id: &str, e: &Elevator) -> Vec<Output> {
+    let trips = e.trips.iter().map(|t| ("risk", "r", t.0, &t.3));
+    let events = e.events.iter().map(|ev| ("events", "e", ev.0, &ev.3));
     let mut out = Vec::new();
-    let mut k = (0i64, 0usize);
-    for (seq, _, _, line) in &e.trips {
-        k = if k.0 == *seq { (k.0, k.1 + 1) } else { (*seq, 0) };
+    let mut last = (None, 0usize);
+    for (kind, tag, seq, line) in trips.chain(events) {
+        // k counts the outputs of one kind from one record.
+        let k = if last.0 == Some((tag, seq)) { last.1 + 1 } else { 0 };
+        last = (Some((tag, seq)), k);
         out.push(Output {
-            kind: "risk",
+            kind,
             id: id.to_string(),
-            msg_id: format!("{id}:r:{seq}:{}", k.1),
-            line: line.clone(),
-        });
-    }
-    let mut k = (0i64, 0usize);
-    for (seq, _, _, line) in &e.events {
-        k = if k.0 == *seq { (k.0, k.1 + 1) } else { (*seq, 0) };
-        out.push(Output {
-            kind: "events",
-            id: id.to_string(),
-            msg_id: format!("{id}:e:{seq}:{}", k.1),
+            msg_id: format!("{id}:{tag}:{seq}:{k}"),
             line: line.clone(),
         });
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn elevator() -> Elevator {
+        Elevator {
+            partition: 0,
+            aligner: Aligner::new(&AlignConfig::default()).unwrap(),
+            monitor: None,
+            model: None,
+            counters: Counters::new(),
+            applied_seq: 0,
+            state_rev: None,
+            trips: Vec::new(),
+            events: Vec::new(),
+            dirty: false,
+        }
+    }
+
+    #[test]
+    fn output_ids_name_the_record_and_repeat_in_a_replay() {
+        let mut e = elevator();
+        e.trips = vec![
+            (7, 0.0, 1.0, "a".into()),
+            (7, 2.0, 3.0, "b".into()),
+            (9, 4.0, 5.0, "c".into()),
+        ];
+        e.events = vec![(7, 1.0, "advisory".into(), "{}".into())];
+        let ids: Vec<String> = outputs("e1", &e).into_iter().map(|o| o.msg_id).collect();
+        assert_eq!(ids, ["e1:r:7:0", "e1:r:7:1", "e1:r:9:0", "e1:e:7:0"]);
+        let again: Vec<String> = outputs("e1", &e).into_iter().map(|o| o.msg_id).collect();
+        assert_eq!(ids, again);
+    }
+
+    #[test]
+    fn an_older_model_version_never_overrides_a_newer_one() {
+        let mut a = HashMap::new();
+        note_active(&mut a, "e1", "d2".into(), 5);
+        note_active(&mut a, "e1", "d1".into(), 3);
+        assert_eq!(a["e1"], ("d2".to_string(), 5));
+        note_active(&mut a, "e1", "d3".into(), 6);
+        assert_eq!(a["e1"], ("d3".to_string(), 6));
+    }
 }

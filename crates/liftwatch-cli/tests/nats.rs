@@ -211,22 +211,11 @@ fn fleet_run(default_n: f64, default_s: f64, default_speedup: f64) {
             let (sent, urls) = (sent.clone(), urls.clone());
             std::thread::spawn(move || {
                 let mut gw = gateway(&urls, 3);
-                let mut plan: Vec<(f64, usize, usize)> = Vec::new();
-                for i in (k..n).step_by(THREADS) {
-                    for b in 0..sent.len() {
-                        let due = (b as f64 + i as f64 / n as f64) * PERIOD_S / speedup;
-                        plan.push((due, i, b));
-                    }
-                }
-                plan.sort_by(|a, b| a.0.total_cmp(&b.0));
+                let plan = common::plan((k..n).step_by(THREADS), n, sent.len(), PERIOD_S / speedup);
                 let mut acks: Vec<(String, u64, f64)> = Vec::new();
                 let mut late = 0.0f64;
                 for (due, i, b) in plan {
-                    let now = t0.elapsed().as_secs_f64();
-                    if due > now {
-                        std::thread::sleep(Duration::from_secs_f64(due - now));
-                    }
-                    late = late.max(t0.elapsed().as_secs_f64() - due);
+                    late = late.max(common::wait_until(t0, due));
                     let id = format!("e{i}");
                     let seq = loop {
                         match gw.publish(&id, sent[b].as_bytes()) {

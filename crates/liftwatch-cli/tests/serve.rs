@@ -574,21 +574,10 @@ fn load_many_elevators_at_one_hertz() {
                 // (elevator, seq, time of the 200)
                 let mut done: Vec<(usize, i64, f64)> = Vec::new();
                 let mine: Vec<usize> = (k..n).step_by(THREADS).collect();
-                let mut plan: Vec<(f64, usize, usize)> = Vec::new();
-                for &i in &mine {
-                    for b in 0..batches.len() {
-                        let due = b as f64 * PERIOD_S + i as f64 * PERIOD_S / n as f64;
-                        plan.push((due, i, b));
-                    }
-                }
-                plan.sort_by(|a, b| a.0.total_cmp(&b.0));
+                let plan = common::plan(mine.iter().copied(), n, batches.len(), PERIOD_S);
                 let mut late = 0.0f64;
                 for (due, i, b) in plan {
-                    let now = t0.elapsed().as_secs_f64();
-                    if due > now {
-                        std::thread::sleep(Duration::from_secs_f64(due - now));
-                    }
-                    late = late.max(t0.elapsed().as_secs_f64() - due);
+                    late = late.max(common::wait_until(t0, due));
                     let id = format!("e{i}");
                     let reply = loop {
                         match sender.send(&id, batches[b].as_bytes()) {

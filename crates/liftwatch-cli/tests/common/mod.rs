@@ -8,6 +8,7 @@ pub mod serve;
 use std::net::TcpListener;
 use std::path::{Path, PathBuf};
 use std::process::Child;
+use std::time::{Duration, Instant};
 
 /// A fresh directory for one case under the target's tmp dir, removed at the end.
 pub struct Dir(pub PathBuf);
@@ -101,4 +102,26 @@ pub fn batches(text: &str, period_s: f64) -> Vec<String> {
         b.push('\n');
     }
     out
+}
+
+/// One sender thread's plan: (due time in s, elevator index, batch) for each of its elevators
+/// and `batches` batches, elevator i's batch b due at (b + i/n)·`period_s`, in due order.
+pub fn plan(mine: impl Iterator<Item = usize>, n: usize, batches: usize, period_s: f64) -> Vec<(f64, usize, usize)> {
+    let mut plan = Vec::new();
+    for i in mine {
+        for b in 0..batches {
+            plan.push(((b as f64 + i as f64 / n as f64) * period_s, i, b));
+        }
+    }
+    plan.sort_by(|a, b| a.0.total_cmp(&b.0));
+    plan
+}
+
+/// Sleeps until `due` s after `t0`; how late it is then (s).
+pub fn wait_until(t0: Instant, due: f64) -> f64 {
+    let now = t0.elapsed().as_secs_f64();
+    if due > now {
+        std::thread::sleep(Duration::from_secs_f64(due - now));
+    }
+    t0.elapsed().as_secs_f64() - due
 }

@@ -79,6 +79,9 @@ pub type Partition = async_nats::jetstream::consumer::PullConsumer;
 pub struct Record {
     /// Its stream sequence: the position a checkpoint covers.
     pub seq: u64,
+    /// Its delivery number on this reading of the partition (1, 2, …): a number skipped is a
+    /// delivery that never arrived (a fetch that ended while it was on its way).
+    pub delivery: u64,
     /// The elevator.
     pub id: String,
     /// The raw body (`time,signal,value` CSV or JSON lines), as over HTTP.
@@ -259,12 +262,16 @@ impl Bus {
         let mut out = Vec::new();
         while let Some(m) = batch.next().await {
             let m = m.map_err(|e| line("fetch", e))?;
-            let seq = m.info().map_err(|e| line("fetch", e))?.stream_sequence;
-            let Some(id) = id_of_subject(&m.subject).map(str::to_string) else {
-                continue;
+            let (seq, delivery) = {
+                let i = m.info().map_err(|e| line("fetch", e))?;
+                (i.stream_sequence, i.consumer_sequence)
             };
+            let id = id_of_subject(&m.subject)
+                .expect("the consumer's filter liftwatch.part.{p}.* leaves one token after p")
+                .to_string();
             out.push(Record {
                 seq,
+                delivery,
                 id,
                 body: m.payload.clone(),
                 position: Position(m),

@@ -96,9 +96,29 @@ struct Leases {
     lost: Mutex<Vec<u32>>,
 }
 
+impl Elevator {
+    /// An elevator seen for the first time: nothing applied, no model yet.
+    fn fresh(partition: u32, aligner: Aligner) -> Elevator {
+        Elevator {
+            partition,
+            aligner,
+            monitor: None,
+            model: None,
+            counters: Counters::new(),
+            applied_seq: 0,
+            state_rev: None,
+            trips: Vec::new(),
+            events: Vec::new(),
+            dirty: false,
+        }
+    }
+}
+
 /// A partition this worker holds.
 struct Part {
     consumer: bus::Partition,
+    /// The last delivery number applied on this consumer.
+    delivered: u64,
     last: Option<Position>,
     ids: HashSet<String>,
 }
@@ -372,6 +392,7 @@ impl Fleet {
                 p,
                 Part {
                     consumer,
+                    delivered: 0,
                     last: None,
                     ids: HashSet::new(),
                 },
@@ -414,6 +435,23 @@ impl Fleet {
         };
         let n = recs.len();
         for rec in recs {
+            let expected = self.parts[&p].delivered + 1;
+            if rec.delivery != expected {
+                // A delivery went missing: nothing after it may be applied or committed. The
+                // partition is read again from its committed floor; the elevators keep their
+                // state and skip what they already applied.
+                log(
+                    "warn",
+                    &format!("partition {p}: delivery {} came instead of {expected}; read again from the committed floor", rec.delivery),
+                );
+                let consumer = self.bus.open(p).await?;
+                let part = self.parts.get_mut(&p).expect("held");
+                part.consumer = consumer;
+                part.delivered = 0;
+                part.last = None;
+                return Ok(n);
+            }
+            self.parts.get_mut(&p).expect("held").delivered = rec.delivery;
             if !self.elevators.contains_key(&rec.id) {
                 self.load(p, &rec.id).await?;
                 self.parts.get_mut(&p).expect("held").ids.insert(rec.id.clone());
@@ -473,23 +511,15 @@ impl Fleet {
     /// Loads elevator `id` of partition `p` from its checkpoint, or fresh.
     async fn load(&mut self, p: u32, id: &str) -> Result<(), String> {
         let e = match self.bus.load_state(id).await? {
-            None => Elevator {
-                partition: p,
-                aligner: Aligner::new(
+            None => Elevator::fresh(
+                p,
+                Aligner::new(
                     &AlignConfig::default()
                         .with_reorder_window(self.cfg.reorder_window_s)
                         .map_err(|e| e.to_string())?,
                 )
                 .map_err(|e| e.to_string())?,
-                monitor: None,
-                model: None,
-                counters: Counters::new(),
-                applied_seq: 0,
-                state_rev: None,
-                trips: Vec::new(),
-                events: Vec::new(),
-                dirty: false,
-            },
+            ),
             Some((rev, bytes)) => {
                 let c: Checkpoint = serde_json::from_slice(&bytes)
                     .map_err(|e| format!("elevator {id}: checkpoint: {e}"))?;
@@ -691,18 +721,7 @@ mod tests {
     use super::*;
 
     fn elevator() -> Elevator {
-        Elevator {
-            partition: 0,
-            aligner: Aligner::new(&AlignConfig::default()).unwrap(),
-            monitor: None,
-            model: None,
-            counters: Counters::new(),
-            applied_seq: 0,
-            state_rev: None,
-            trips: Vec::new(),
-            events: Vec::new(),
-            dirty: false,
-        }
+        Elevator::fresh(0, Aligner::new(&AlignConfig::default()).unwrap())
     }
 
     #[test]

@@ -8,37 +8,18 @@
 mod common;
 
 use std::io::Read;
-use std::net::TcpListener;
 use std::path::Path;
-use std::process::{Child, Command, Stdio};
+use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 use common::serve::{csv_rows, run, strip, Server, BIN, PATIENCE, TOKEN};
-use common::Dir;
+use common::{free_port, Dir, Killed};
 use serde_json::Value;
 
 /// Debian's Mosquitto broker and its password tool.
 const MOSQUITTO: &str = "/usr/sbin/mosquitto";
 const MOSQUITTO_PASSWD: &str = "/usr/bin/mosquitto_passwd";
 const MOSQUITTO_SUB: &str = "/usr/bin/mosquitto_sub";
-
-/// A child process killed on drop.
-struct Killed(Child);
-
-impl Drop for Killed {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
-}
-
-/// A free loopback port (the listener is closed again at once).
-fn free_port() -> u16 {
-    TcpListener::bind("127.0.0.1:0")
-        .and_then(|l| l.local_addr())
-        .expect("a free port")
-        .port()
-}
 
 /// Starts Mosquitto on `port`, loopback only, with two logins: the service and a gateway.
 fn broker(dir: &Dir, port: u16) -> Killed {

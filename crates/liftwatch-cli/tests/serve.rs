@@ -10,7 +10,7 @@ use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 use common::serve::*;
-use common::Dir;
+use common::{env_num, Dir};
 use serde_json::Value;
 
 /// One simulated healthy day (seed 5) into `healthy` and its model (150 epochs), the start of
@@ -496,14 +496,6 @@ fn bad_input_is_refused_with_a_4xx_and_changes_nothing() {
     assert!(body.contains("without a token"), "{body}");
 }
 
-/// A number from the environment, or `default`.
-fn env_num(name: &str, default: f64) -> f64 {
-    std::env::var(name)
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(default)
-}
-
 /// `liftwatch_NAME{elevator="ID"} VALUE` lines of a metrics text, per elevator.
 fn metric(text: &str, name: &str) -> std::collections::HashMap<String, f64> {
     let prefix = format!("{name}{{elevator=\"");
@@ -536,18 +528,7 @@ fn load_many_elevators_at_one_hertz() {
     let healthy = dir.path("healthy");
     let model = healthy_day_and_model(&dir, &healthy);
     let text = std::fs::read_to_string(healthy.join("raw.csv")).unwrap();
-    let mut batches: Vec<String> = Vec::new();
-    let mut start = f64::NAN;
-    for r in text.lines().skip(1) {
-        let t: f64 = r.split(',').next().unwrap().parse().unwrap();
-        if batches.is_empty() || t >= start + PERIOD_S {
-            batches.push("time,signal,value\n".into());
-            start = t;
-        }
-        let b = batches.last_mut().unwrap();
-        b.push_str(r);
-        b.push('\n');
-    }
+    let batches = common::batches(&text, PERIOD_S);
     let per_elevator = ((seconds / PERIOD_S) as usize).min(batches.len());
     let batches = std::sync::Arc::new(batches[..per_elevator].to_vec());
     let rows_each: usize = batches.iter().map(|b| b.lines().count() - 1).sum();
@@ -563,13 +544,7 @@ fn load_many_elevators_at_one_hertz() {
                 .unwrap(),
         ],
     );
-    let rss = |pid: u32| -> f64 {
-        let st = std::fs::read_to_string(format!("/proc/{pid}/status")).unwrap_or_default();
-        st.lines()
-            .find_map(|l| l.strip_prefix("VmRSS:"))
-            .and_then(|v| v.trim().trim_end_matches("kB").trim().parse::<f64>().ok())
-            .unwrap_or(f64::NAN)
-    };
+    let rss = common::rss_kb;
     let rss_before = rss(server.child.id());
     let body = std::fs::read(&model).unwrap();
     for i in 0..n {
@@ -610,21 +585,10 @@ fn load_many_elevators_at_one_hertz() {
                 // (elevator, seq, time of the 200)
                 let mut done: Vec<(usize, i64, f64)> = Vec::new();
                 let mine: Vec<usize> = (k..n).step_by(THREADS).collect();
-                let mut plan: Vec<(f64, usize, usize)> = Vec::new();
-                for &i in &mine {
-                    for b in 0..batches.len() {
-                        let due = b as f64 * PERIOD_S + i as f64 * PERIOD_S / n as f64;
-                        plan.push((due, i, b));
-                    }
-                }
-                plan.sort_by(|a, b| a.0.total_cmp(&b.0));
+                let plan = common::plan(mine.iter().copied(), n, batches.len(), PERIOD_S);
                 let mut late = 0.0f64;
                 for (due, i, b) in plan {
-                    let now = t0.elapsed().as_secs_f64();
-                    if due > now {
-                        std::thread::sleep(Duration::from_secs_f64(due - now));
-                    }
-                    late = late.max(t0.elapsed().as_secs_f64() - due);
+                    late = late.max(common::wait_until(t0, due));
                     let id = format!("e{i}");
                     let reply = loop {
                         match sender.send(&id, batches[b].as_bytes()) {

@@ -13,6 +13,10 @@
 //! read_token = false             # true: reads need the token too
 //! mqtt = "mqtt://liftwatch:PASSWORD@127.0.0.1:1883"  # optional: telemetry in, events out
 //! mqtt_client_id = "liftwatch-serve"  # the broker keeps this session's subscription
+//! nats = "nats://127.0.0.1:4222,nats://127.0.0.1:4223"  # optional: the fleet mode (README)
+//! nats_partitions = 16           # P of the server's `partition(P,1)` mapping, the same number
+//! nats_replicas = 3              # replicas of the streams and buckets (1 for one server)
+//! nats_lease_s = 6.0             # a partition's lease lives this long without a renewal
 //!
 //! [[elevators]]
 //! id = "B7-east"
@@ -59,6 +63,13 @@ pub const DEFAULT_MAX_ELEVATORS: usize = 2_000;
 /// Default MQTT client id of the service: the broker keeps the persistent session (and the
 /// messages not yet acknowledged) under it; two services on one broker need two ids.
 pub const DEFAULT_MQTT_CLIENT_ID: &str = "liftwatch-serve";
+
+/// Default number of partitions of the fleet mode: the `P` of the server's mapping.
+pub const DEFAULT_NATS_PARTITIONS: u32 = 16;
+
+/// Default lease of a partition in the fleet mode (s): renewed every third of it, so a dead
+/// worker's partitions are free again this long after its last renewal.
+pub const DEFAULT_NATS_LEASE_S: f64 = 6.0;
 
 /// Default listening address: this machine only.
 pub const DEFAULT_LISTEN: &str = "127.0.0.1:8080";
@@ -119,6 +130,15 @@ pub struct Config {
     pub mqtt: Option<String>,
     /// The service's MQTT client id.
     pub mqtt_client_id: String,
+    /// NATS servers (`nats://host:port[,nats://host:port…]`): the fleet mode on JetStream
+    /// instead of the embedded store (README, *Fleet*); none by default.
+    pub nats: Option<String>,
+    /// Partitions of the telemetry subjects: the `P` of the server's mapping.
+    pub nats_partitions: u32,
+    /// Replicas of the fleet's streams and buckets (at most the cluster's servers).
+    pub nats_replicas: usize,
+    /// Lifetime of a partition lease without renewal (s).
+    pub nats_lease_s: f64,
     /// Elevators known from the start.
     pub elevators: Vec<ElevatorInfo>,
 }
@@ -138,6 +158,10 @@ impl Default for Config {
             read_token: false,
             mqtt: None,
             mqtt_client_id: DEFAULT_MQTT_CLIENT_ID.into(),
+            nats: None,
+            nats_partitions: DEFAULT_NATS_PARTITIONS,
+            nats_replicas: 1,
+            nats_lease_s: DEFAULT_NATS_LEASE_S,
             elevators: Vec::new(),
         }
     }
@@ -209,6 +233,21 @@ impl Config {
         if let Some(url) = &self.mqtt {
             Broker::parse(url).map_err(|e| format!("mqtt {e}"))?;
         }
+        if let Some(urls) = &self.nats {
+            nats_servers(urls).map_err(|e| format!("nats {e}"))?;
+            if self.mqtt.is_some() {
+                return Err("mqtt and nats exclude each other: with nats, gateways publish MQTT into the NATS server's MQTT listener".into());
+            }
+        }
+        if !(1..=1024).contains(&self.nats_partitions) {
+            return Err(format!("nats_partitions {} is outside 1 to 1024", self.nats_partitions));
+        }
+        if !(1..=5).contains(&self.nats_replicas) {
+            return Err(format!("nats_replicas {} is outside 1 to 5", self.nats_replicas));
+        }
+        if !(self.nats_lease_s >= 1.0 && self.nats_lease_s <= 600.0) {
+            return Err(format!("nats_lease_s {} is outside 1 to 600", self.nats_lease_s));
+        }
         if self.mqtt_client_id.is_empty() || self.mqtt_client_id.len() > 64 {
             return Err("mqtt_client_id must be 1 to 64 characters".into());
         }
@@ -224,6 +263,27 @@ impl Config {
         }
         Ok(())
     }
+}
+
+/// The servers of a `nats` setting: `nats://host:port` addresses separated by commas.
+///
+/// # Errors
+/// One line naming the address out of form.
+pub fn nats_servers(urls: &str) -> Result<Vec<String>, String> {
+    let mut out = Vec::new();
+    for u in urls.split(',').map(str::trim) {
+        let rest = u
+            .strip_prefix("nats://")
+            .ok_or_else(|| format!("`{}` is not nats://host:port", one_line(u)))?;
+        let (host, port) = rest
+            .rsplit_once(':')
+            .ok_or_else(|| format!("`{}` has no :port", one_line(u)))?;
+        if host.is_empty() || host.contains(['/', '@']) || port.parse::<u16>().is_err() {
+            return Err(format!("`{}` is not nats://host:port", one_line(u)));
+        }
+        out.push(u.to_string());
+    }
+    Ok(out)
 }
 
 /// Checks the values of an elevator description.

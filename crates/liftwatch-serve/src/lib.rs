@@ -13,12 +13,14 @@
 //! The modules: [`config`] the settings, [`store`] the database, [`worker`] the streaming
 //! application and checkpoints, [`registry`] the models and maintenance visits, [`api`] the
 //! HTTP routes, [`mqtt`] telemetry in and events out through a broker, [`replay`] the client
-//! that sends a raw log to a server. The library
+//! that sends a raw log to a server; [`fleet`] the scale-out mode on NATS JetStream, the same
+//! worker step on partitions of one log. The library
 //! (`liftwatch`) knows nothing of this crate.
 
 pub mod api;
 pub mod config;
 pub mod error;
+pub mod fleet;
 pub mod ingest;
 pub mod mqtt;
 pub mod registry;
@@ -241,7 +243,7 @@ pub fn serve(opts: ServeOptions) -> Result<(), String> {
 }
 
 /// Resolves at SIGTERM or ctrl-c.
-async fn shutdown_signal() {
+pub(crate) async fn shutdown_signal() {
     let ctrl_c = async {
         let _ = tokio::signal::ctrl_c().await;
     };

@@ -77,7 +77,8 @@ pub struct Counters {
 }
 
 impl Counters {
-    fn new() -> Self {
+    /// Nothing counted yet.
+    pub fn new() -> Self {
         Counters {
             last_door: f64::NAN,
             first_time: f64::NAN,
@@ -117,18 +118,49 @@ struct Runtime {
     rebaseline_gen: i64,
     applied_seq: i64,
     counters: Counters,
-    trips: Vec<(i64, f64, f64, String)>,
-    events: Vec<(i64, f64, String, String)>,
+    trips: Vec<TripOut>,
+    events: Vec<EventOut>,
     dirty: bool,
 }
 
-/// The aligner's sink: samples into the monitor, outputs collected until the checkpoint.
-struct Feed<'a> {
-    monitor: Option<&'a mut Monitor>,
-    counters: &'a mut Counters,
-    trips: &'a mut Vec<(i64, f64, f64, String)>,
-    events: &'a mut Vec<(i64, f64, String, String)>,
-    seq: i64,
+/// A trip row as the workers collect it: (seq of its batch, start, end, CSV line).
+pub type TripOut = (i64, f64, f64, String);
+
+/// An event as the workers collect it: (seq of its batch, time, level, line).
+pub type EventOut = (i64, f64, String, String);
+
+/// The aligner's sink: samples into the monitor, outputs collected until the checkpoint. The
+/// one step of both workers (this embedded one and [`crate::fleet`]'s).
+pub struct Feed<'a> {
+    /// The elevator's monitor, `None` before a model is active.
+    pub monitor: Option<&'a mut Monitor>,
+    /// The worker's counters.
+    pub counters: &'a mut Counters,
+    /// Trip rows out.
+    pub trips: &'a mut Vec<TripOut>,
+    /// Events out.
+    pub events: &'a mut Vec<EventOut>,
+    /// The seq of the batch being applied.
+    pub seq: i64,
+}
+
+impl Feed<'_> {
+    /// Applies one batch's readings through `aligner` into this feed and counts the batch.
+    ///
+    /// # Errors
+    /// The aligner's or the monitor's error, as one line.
+    pub fn apply(
+        &mut self,
+        aligner: &mut Aligner,
+        readings: &[(liftwatch::ingest::Signal, f64, f64)],
+    ) -> Result<(), String> {
+        for (sig, t, v) in readings {
+            aligner.push(*sig, *t, *v, self).map_err(|e| e.to_string())?;
+        }
+        self.counters.batches += 1;
+        self.counters.readings += readings.len() as u64;
+        Ok(())
+    }
 }
 
 impl SampleSink for Feed<'_> {
@@ -481,13 +513,7 @@ impl Worker {
                 events: &mut rt.events,
                 seq,
             };
-            for (sig, t, v) in &readings {
-                rt.aligner
-                    .push(*sig, *t, *v, &mut feed)
-                    .map_err(|e| e.to_string())?;
-            }
-            rt.counters.batches += 1;
-            rt.counters.readings += readings.len() as u64;
+            feed.apply(&mut rt.aligner, &readings)?;
             rt.applied_seq = seq;
             rt.dirty = true;
             self.since_checkpoint += 1;

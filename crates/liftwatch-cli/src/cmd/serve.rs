@@ -30,6 +30,10 @@ pub struct Args {
     /// (`liftwatch/{id}/events`): mqtt://[user:password@]host[:port] (over the config's).
     #[arg(long)]
     pub mqtt: Option<String>,
+    /// NATS servers (nats://host:port[,…]): run as a worker of the fleet mode on JetStream
+    /// instead of the embedded store (over the config's `nats`); `--data` is not used then.
+    #[arg(long)]
+    pub nats: Option<String>,
     /// Days raw telemetry batches are kept for fitting from history (over the config's).
     #[arg(long = "keep-raw-days")]
     pub keep_raw_days: Option<f64>,
@@ -61,7 +65,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if let Some(d) = args.keep_raw_days {
         cfg.keep_raw_days = d;
     }
+    if let Some(n) = args.nats {
+        cfg.nats = Some(n);
+    }
     cfg.validate().map_err(anyhow::Error::msg)?;
+    if cfg.nats.is_some() {
+        let token = token(args.token_file.as_ref())?;
+        return liftwatch_serve::fleet::serve(cfg, token).map_err(anyhow::Error::msg);
+    }
     let Some(data) = args.data.or_else(|| cfg.data.clone()) else {
         anyhow::bail!("--data DIR is required (or `data` in the --config file)");
     };

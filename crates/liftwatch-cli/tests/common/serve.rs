@@ -52,11 +52,15 @@ impl Server {
     }
 
     pub fn start_with(data: &Path, listen: &str, token: Option<&str>, extra: &[&str]) -> Server {
+        let data = data.to_str().expect("a UTF-8 path");
+        Server::spawn(&[&["--data", data, "--listen", listen][..], extra].concat(), token)
+    }
+
+    /// `liftwatch serve ARGS…`, once it printed its listening line.
+    pub fn spawn(args: &[&str], token: Option<&str>) -> Server {
         let mut cmd = Command::new(server_bin());
-        cmd.args(["serve", "--data"])
-            .arg(data)
-            .args(["--listen", listen])
-            .args(extra)
+        cmd.arg("serve")
+            .args(args)
             .env_remove("LIFTWATCH_TOKEN")
             .stdin(Stdio::null())
             .stdout(Stdio::null())
@@ -84,9 +88,16 @@ impl Server {
             }
         };
         // Drain the logs so the server never blocks on a full pipe.
+        // LIFTWATCH_TEST_LOGS=1 passes them on.
+        let show = std::env::var_os("LIFTWATCH_TEST_LOGS").is_some();
         std::thread::spawn(move || {
-            let mut sink = Vec::new();
-            let _ = err.read_to_end(&mut sink);
+            let mut line = String::new();
+            while err.read_line(&mut line).unwrap_or(0) > 0 {
+                if show {
+                    eprint!("{line}");
+                }
+                line.clear();
+            }
         });
         Server { child, port }
     }

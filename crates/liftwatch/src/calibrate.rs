@@ -35,7 +35,7 @@ use crate::alarm::{AlarmState, Level};
 use crate::error::{Error, Result};
 use crate::linalg::SquareMatrix;
 use crate::mode::N_MODES;
-use crate::risk::sequential::N_SIZES;
+use crate::risk::sequential::{DAY_S, N_SIZES};
 use crate::risk::{
     excess, RiskConfig, RiskTracker, Rls, SequentialConfig, TripEvidence, MAX_HEATING, N_HEAT,
 };
@@ -235,7 +235,7 @@ pub fn calibrate(healthy: &[TripEvidence], settings: &CalibrationSettings) -> Re
     // taken out with the β of the other days, as a new day will: β fitted on a day itself
     // explains that day's own wander, and thresholds bootstrapped from such days were too low
     // for the days after the training.
-    let (heating, heating_se) = identify_heating(&trips);
+    let (heating, heating_se) = identify_heating(&trips, 0..0);
     let trips = without_heating_out_of_day(&trips, &heating);
     let longest = trips.iter().map(|t| t.end - t.start).fold(0.0, f64::max);
     sensor.max_trip_s = (2.0 * longest + 20.0).max(sensor.max_trip_s);
@@ -300,7 +300,12 @@ pub fn calibrate(healthy: &[TripEvidence], settings: &CalibrationSettings) -> Re
 /// Zero when the training does not show it: a Wald χ² below [`HEATING_MIN_WALD`], a steady
 /// heating Σ β_k that lowers Kd (a warmer winding never does) or beyond [`MAX_HEATING`], or
 /// regressors that are not separable.
-fn identify_heating(trips: &[TripEvidence]) -> ([f64; N_HEAT], [f64; N_HEAT]) {
+/// The trips `skip` are left out (a day whose heating is to be taken out with the others' β).
+fn identify_heating(
+    trips: &[TripEvidence],
+    skip: std::ops::Range<usize>,
+) -> ([f64; N_HEAT], [f64; N_HEAT]) {
+    let used = || trips[..skip.start].iter().chain(&trips[skip.end..]);
     const K: usize = N_MODES + N_HEAT;
     let none = ([0.0; N_HEAT], [0.0; N_HEAT]);
     let design = |t: &TripEvidence| -> ([[f64; K]; K], [f64; K]) {
@@ -321,7 +326,7 @@ fn identify_heating(trips: &[TripEvidence]) -> ([f64; N_HEAT], [f64; N_HEAT]) {
                 a[N_MODES + l][i] = t.heat.xh[l][i];
             }
             for q in 0..N_HEAT {
-                a[N_MODES + l][N_MODES + q] = t.heat.hh(l, q);
+                a[N_MODES + l][N_MODES + q] = t.heat.hh[l][q];
             }
             b[N_MODES + l] = t.heat.hr[l];
         }
@@ -329,7 +334,7 @@ fn identify_heating(trips: &[TripEvidence]) -> ([f64; N_HEAT], [f64; N_HEAT]) {
     };
     let mut a = SquareMatrix::zeros(K);
     let mut b = [0.0; K];
-    for t in trips {
+    for t in used() {
         let (at, bt) = design(t);
         for i in 0..K {
             for j in 0..K {
@@ -344,7 +349,7 @@ fn identify_heating(trips: &[TripEvidence]) -> ([f64; N_HEAT], [f64; N_HEAT]) {
     let theta = l.cholesky_solve(&b);
     let inv = l.cholesky_inverse();
     let mut meat = SquareMatrix::zeros(K);
-    for t in trips {
+    for t in used() {
         let (at, bt) = design(t);
         let g: Vec<f64> = (0..K)
             .map(|i| bt[i] - (0..K).map(|j| at[i][j] * theta[j]).sum::<f64>())
@@ -385,17 +390,17 @@ fn identify_heating(trips: &[TripEvidence]) -> ([f64; N_HEAT], [f64; N_HEAT]) {
 /// days ([`identify_heating`]); a training of one day, or a day whose complement does not
 /// show the heating, uses `all` (the β of the whole training).
 fn without_heating_out_of_day(trips: &[TripEvidence], all: &[f64; N_HEAT]) -> Vec<TripEvidence> {
-    let day = |t: &TripEvidence| (t.start / 86_400.0).floor();
+    let day = |t: &TripEvidence| (t.start / DAY_S).floor();
     let mut out = Vec::with_capacity(trips.len());
     let mut i = 0;
     while i < trips.len() {
         let d = day(&trips[i]);
         let end = i + trips[i..].iter().take_while(|t| day(t) == d).count();
-        let others: Vec<TripEvidence> = trips[..i].iter().chain(&trips[end..]).cloned().collect();
-        let beta = if all.iter().all(|b| *b == 0.0) || others.len() < MIN_HEALTHY_TRIPS {
+        let others = trips.len() - (end - i);
+        let beta = if all.iter().all(|b| *b == 0.0) || others < MIN_HEALTHY_TRIPS {
             *all
         } else {
-            match identify_heating(&others) {
+            match identify_heating(trips, i..end) {
                 (b, _) if b.iter().any(|v| *v != 0.0) => b,
                 _ => *all,
             }

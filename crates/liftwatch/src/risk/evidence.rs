@@ -64,17 +64,10 @@ pub struct TripEvidence {
 pub struct HeatEvidence {
     /// Mean of x_m·x_heat,k per lag k and signature m (V²).
     pub xh: [[f64; N_MODES]; N_HEAT],
-    /// Mean of x_heat,k·x_heat,l, packed (00, 01, 11) (V²).
-    pub hh: [f64; 3],
+    /// Mean of x_heat,k·x_heat,l (V²).
+    pub hh: [[f64; N_HEAT]; N_HEAT],
     /// Mean of x_heat,k·r_U (V²).
     pub hr: [f64; N_HEAT],
-}
-
-impl HeatEvidence {
-    /// Mean of x_heat,k·x_heat,l.
-    pub fn hh(&self, k: usize, l: usize) -> f64 {
-        self.hh[k + l]
-    }
 }
 
 impl TripEvidence {
@@ -98,8 +91,8 @@ impl TripEvidence {
             }
             rr -= 2.0 * beta[k] * h.hr[k];
             for l in 0..N_HEAT {
-                rr += beta[k] * h.hh(k, l) * beta[l];
-                t.heat.hr[k] -= beta[l] * h.hh(k, l);
+                rr += beta[k] * h.hh[k][l] * beta[l];
+                t.heat.hr[k] -= beta[l] * h.hh[k][l];
             }
         }
         t.rr = rr.max(0.0);
@@ -296,10 +289,10 @@ impl TripAccumulator {
                 self.heat.xh[l][i] += sig[i] * xl;
             }
             self.heat.hr[l] += xl * r.r_u;
+            for (hh, xq) in self.heat.hh[l].iter_mut().zip(&x_heat) {
+                *hh += xl * xq;
+            }
         }
-        self.heat.hh[0] += x_heat[0] * x_heat[0];
-        self.heat.hh[1] += x_heat[0] * x_heat[1];
-        self.heat.hh[2] += x_heat[1] * x_heat[1];
         self.rr += r.r_u * r.r_u;
     }
 
@@ -338,7 +331,7 @@ impl TripAccumulator {
             plausible,
             heat: HeatEvidence {
                 xh: a.heat.xh.map(|row| row.map(|v| v / n)),
-                hh: a.heat.hh.map(|v| v / n),
+                hh: a.heat.hh.map(|row| row.map(|v| v / n)),
                 hr: a.heat.hr.map(|v| v / n),
             },
         })

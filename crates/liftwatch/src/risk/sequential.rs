@@ -117,8 +117,9 @@ pub const REFERENCE_Z: f64 = 2.0;
 /// advisories of the size 1/2 on the 40-floor car).
 pub const REFERENCE_SIZE: usize = 0;
 
-/// Seconds of a day: the reference's spread is measured between calendar days of training.
-const DAY_S: f64 = 86_400.0;
+/// Seconds of a day: the reference's spread is measured between calendar days of training
+/// (and the calibration takes the heating out of each such day with the other days' β).
+pub(crate) const DAY_S: f64 = 86_400.0;
 
 /// Trips per block when the healthy wander is measured: a few busy hours, short against the
 /// daily thermal cycle, long enough for a block's noise to be small.

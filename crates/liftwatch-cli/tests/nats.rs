@@ -100,10 +100,27 @@ fn retried<T>(urls: &str, f: impl Fn(&Gateway) -> Result<T, String>) -> T {
 fn data(dir: &Dir, seed: &str) -> (std::path::PathBuf, std::path::PathBuf) {
     let s = |p: &Path| p.to_str().unwrap().to_string();
     let healthy = dir.path("healthy");
-    run(&["simulate", "--out", &s(&healthy), "--days", "1", "--seed", seed, "-q"]);
+    run(&[
+        "simulate",
+        "--out",
+        &s(&healthy),
+        "--days",
+        "1",
+        "--seed",
+        seed,
+        "-q",
+    ]);
     let model = dir.path("model.json");
     let (raw, elevator) = (healthy.join("raw.csv"), healthy.join("elevator.toml"));
-    run(&["fit", "--input", &s(&raw), "--elevator", &s(&elevator), "--out", &s(&model)]);
+    run(&[
+        "fit",
+        "--input",
+        &s(&raw),
+        "--elevator",
+        &s(&elevator),
+        "--out",
+        &s(&model),
+    ]);
     (raw, model)
 }
 
@@ -112,7 +129,18 @@ fn batch_rows(dir: &Dir, model: &Path, body: &str) -> Vec<Value> {
     let input = dir.file("streamed.csv", body.as_bytes());
     let out = dir.path("want.csv");
     let s = |p: &Path| p.to_str().unwrap().to_string();
-    run(&["monitor", "--model", &s(model), "--input", &s(&input), "--out", &s(&out), "--rows", "trip", "-q"]);
+    run(&[
+        "monitor",
+        "--model",
+        &s(model),
+        "--input",
+        &s(&input),
+        "--out",
+        &s(&out),
+        "--rows",
+        "trip",
+        "-q",
+    ]);
     csv_rows(&out)
 }
 
@@ -125,9 +153,18 @@ fn risk_rows(
 ) -> HashMap<String, Vec<(Value, u64, f64)>> {
     let mut per: HashMap<String, Vec<(String, u64, f64)>> = HashMap::new();
     for o in outputs {
-        let Some(id) = o.subject.strip_prefix("liftwatch.risk.") else { continue };
-        let seq = o.msg_id.split(':').nth(2).and_then(|s| s.parse().ok()).unwrap_or(0);
-        per.entry(id.to_string()).or_default().push((o.line.clone(), seq, o.stored));
+        let Some(id) = o.subject.strip_prefix("liftwatch.risk.") else {
+            continue;
+        };
+        let seq = o
+            .msg_id
+            .split(':')
+            .nth(2)
+            .and_then(|s| s.parse().ok())
+            .unwrap_or(0);
+        per.entry(id.to_string())
+            .or_default()
+            .push((o.line.clone(), seq, o.stored));
     }
     per.into_iter()
         .map(|(id, lines)| {
@@ -135,7 +172,11 @@ fn risk_rows(
                 .chain(lines.iter().map(|l| format!("{}\n", l.0)))
                 .collect();
             let rows = csv_rows(&dir.file("rows.csv", text.as_bytes()));
-            let v = rows.into_iter().zip(lines).map(|(r, (_, seq, t))| (r, seq, t)).collect();
+            let v = rows
+                .into_iter()
+                .zip(lines)
+                .map(|(r, (_, seq, t))| (r, seq, t))
+                .collect();
             (id, v)
         })
         .collect()
@@ -172,7 +213,10 @@ fn fleet_run(default_n: f64, default_s: f64, default_speedup: f64) {
     let per_elevator = ((seconds * speedup / PERIOD_S) as usize).min(all.len());
     let sent: Vec<String> = all[..per_elevator].to_vec();
     let streamed: String = std::iter::once("time,signal,value\n".to_string())
-        .chain(sent.iter().map(|b| b.split_once('\n').unwrap().1.to_string()))
+        .chain(
+            sent.iter()
+                .map(|b| b.split_once('\n').unwrap().1.to_string()),
+        )
         .collect();
     let want = batch_rows(&dir, &model, &streamed);
     let rows_each: u64 = sent.iter().map(|b| b.lines().count() as u64 - 1).sum();
@@ -188,16 +232,29 @@ fn fleet_run(default_n: f64, default_s: f64, default_speedup: f64) {
         "fleet.toml",
         format!("nats_partitions = {PARTITIONS}\nnats_replicas = 3\nnats_lease_s = 3.0\ncheckpoint_every_s = 1.0\n").as_bytes(),
     );
-    let args = ["--nats", &urls, "--listen", "127.0.0.1:0", "--config", cfg.to_str().unwrap()];
+    let args = [
+        "--nats",
+        &urls,
+        "--listen",
+        "127.0.0.1:0",
+        "--config",
+        cfg.to_str().unwrap(),
+    ];
     let mut workers: Vec<Server> = (0..3).map(|_| Server::spawn(&args, Some(TOKEN))).collect();
     // Every partition held before the load starts.
     let t0 = Instant::now();
     loop {
-        let held: usize = workers.iter().map(|w| health(w)["partitions"].as_array().unwrap().len()).sum();
+        let held: usize = workers
+            .iter()
+            .map(|w| health(w)["partitions"].as_array().unwrap().len())
+            .sum();
         if held == PARTITIONS as usize {
             break;
         }
-        assert!(t0.elapsed() < PATIENCE, "the partitions were not shared out");
+        assert!(
+            t0.elapsed() < PATIENCE,
+            "the partitions were not shared out"
+        );
         std::thread::sleep(Duration::from_millis(100));
     }
     let rss0: Vec<f64> = workers.iter().map(|w| rss_kb(w.child.id())).collect();
@@ -242,11 +299,17 @@ fn fleet_run(default_n: f64, default_s: f64, default_speedup: f64) {
     let t_kill = Instant::now();
     let survivors = &workers[1..];
     let takeover = loop {
-        let held: usize = survivors.iter().map(|w| health(w)["partitions"].as_array().unwrap().len()).sum();
+        let held: usize = survivors
+            .iter()
+            .map(|w| health(w)["partitions"].as_array().unwrap().len())
+            .sum();
         if held == PARTITIONS as usize {
             break t_kill.elapsed().as_secs_f64();
         }
-        assert!(t_kill.elapsed() < PATIENCE, "the partitions of the dead worker were not taken over");
+        assert!(
+            t_kill.elapsed() < PATIENCE,
+            "the partitions of the dead worker were not taken over"
+        );
         std::thread::sleep(Duration::from_millis(50));
     };
     let left = wall * 0.6 - t0.elapsed().as_secs_f64();
@@ -272,7 +335,10 @@ fn fleet_run(default_n: f64, default_s: f64, default_speedup: f64) {
     let t1 = Instant::now();
     let progress = loop {
         let p = retried(&urls, |g| g.progress());
-        if last_seq.iter().all(|(id, s)| p.get(id).is_some_and(|x| x.0 >= *s)) {
+        if last_seq
+            .iter()
+            .all(|(id, s)| p.get(id).is_some_and(|x| x.0 >= *s))
+        {
             break p;
         }
         if t1.elapsed() > PATIENCE * 2 {
@@ -288,7 +354,8 @@ fn fleet_run(default_n: f64, default_s: f64, default_speedup: f64) {
         std::thread::sleep(Duration::from_millis(250));
     };
     let caught_up = t1.elapsed().as_secs_f64();
-    let rss: f64 = survivors.iter().map(|w| rss_kb(w.child.id())).sum::<f64>() - rss0[1..].iter().sum::<f64>();
+    let rss: f64 =
+        survivors.iter().map(|w| rss_kb(w.child.id())).sum::<f64>() - rss0[1..].iter().sum::<f64>();
     let outputs = retried(&urls, |g| g.outputs());
     let got = risk_rows(&dir, &header(&dir), &outputs);
     let ack_time: HashMap<u64, f64> = acks.iter().map(|(_, s, t)| (*s, *t)).collect();
@@ -296,10 +363,18 @@ fn fleet_run(default_n: f64, default_s: f64, default_speedup: f64) {
     let mut complete = 0;
     for i in 0..n {
         let id = format!("e{i}");
-        assert_eq!(progress[&id].1, rows_each, "{id}: readings applied exactly once");
+        assert_eq!(
+            progress[&id].1, rows_each,
+            "{id}: readings applied exactly once"
+        );
         let rows = got.get(&id).cloned().unwrap_or_default();
         // The aligner holds the last reorder window back: at most a few trips at the end.
-        assert!(rows.len() <= want.len() && rows.len() + 3 >= want.len(), "{id}: {} rows of {}", rows.len(), want.len());
+        assert!(
+            rows.len() <= want.len() && rows.len() + 3 >= want.len(),
+            "{id}: {} rows of {}",
+            rows.len(),
+            want.len()
+        );
         for (k, (r, seq, stored)) in rows.iter().enumerate() {
             assert_eq!(r, &want[k], "{id}: trip row {k}");
             if let Some(t) = ack_time.get(seq) {
@@ -309,7 +384,11 @@ fn fleet_run(default_n: f64, default_s: f64, default_speedup: f64) {
         complete += usize::from(rows.len() == want.len());
     }
     lat.sort_by(f64::total_cmp);
-    let q = |p: f64| lat.get(((lat.len().max(1) - 1) as f64 * p).round() as usize).copied().unwrap_or(f64::NAN);
+    let q = |p: f64| {
+        lat.get(((lat.len().max(1) - 1) as f64 * p).round() as usize)
+            .copied()
+            .unwrap_or(f64::NAN)
+    };
     eprintln!(
         "fleet: {n} elevators × {per_elevator} messages ({:.0}/s) in {sent_s:.0} s, senders at most {worst_late:.2} s behind, \
          caught up {caught_up:.1} s later; worker killed: its partitions taken over in {takeover:.2} s; server killed at 60 %; \
@@ -359,27 +438,58 @@ fn a_gateway_over_mqtt_reaches_a_worker() {
     let mqtt = free_port();
     let (_servers, urls) = cluster(&dir, 1, 4, Some(mqtt));
     let gw = gateway(&urls[0], 1);
-    let cfg = dir.file("fleet.toml", b"nats_partitions = 4\ncheckpoint_every_s = 0.5\n");
+    let cfg = dir.file(
+        "fleet.toml",
+        b"nats_partitions = 4\ncheckpoint_every_s = 0.5\n",
+    );
     let worker = Server::spawn(
-        &["--nats", &urls[0], "--listen", "127.0.0.1:0", "--config", cfg.to_str().unwrap()],
+        &[
+            "--nats",
+            &urls[0],
+            "--listen",
+            "127.0.0.1:0",
+            "--config",
+            cfg.to_str().unwrap(),
+        ],
         Some(TOKEN),
     );
-    let (st, reply) = worker.req("POST", "/api/v1/elevators/lift-m/models", Some(TOKEN), &std::fs::read(&model).unwrap());
+    let (st, reply) = worker.req(
+        "POST",
+        "/api/v1/elevators/lift-m/models",
+        Some(TOKEN),
+        &std::fs::read(&model).unwrap(),
+    );
     assert_eq!(st, 201, "{reply}");
     let (st, _) = worker.req("POST", "/api/v1/elevators/lift-m/models", None, b"{}");
     assert_eq!(st, 401, "a write without the token is refused");
     // Three hours of the healthy day through MQTT, in 60-s batches (QoS 1).
     let text = std::fs::read_to_string(&raw).unwrap();
-    let part: String = text.lines().take(1 + 3 * 3600 * 6).map(|l| format!("{l}\n")).collect();
+    let part: String = text
+        .lines()
+        .take(1 + 3 * 3600 * 6)
+        .map(|l| format!("{l}\n"))
+        .collect();
     let part_file = dir.file("part.csv", part.as_bytes());
     let want = batch_rows(&dir, &model, &part);
     assert!(want.len() > 5, "the hours have trips");
     let sent = Command::new(BIN)
         .args(["replay", "--input", &s(&part_file), "--id", "lift-m"])
-        .args(["--to", &format!("mqtt://127.0.0.1:{mqtt}"), "--speed", "0", "--batch-s", "60", "-q"])
+        .args([
+            "--to",
+            &format!("mqtt://127.0.0.1:{mqtt}"),
+            "--speed",
+            "0",
+            "--batch-s",
+            "60",
+            "-q",
+        ])
         .output()
         .unwrap();
-    assert!(sent.status.success(), "{}", String::from_utf8_lossy(&sent.stderr));
+    assert!(
+        sent.status.success(),
+        "{}",
+        String::from_utf8_lossy(&sent.stderr)
+    );
     let rows = part.lines().count() as u64 - 1;
     let t0 = Instant::now();
     loop {
@@ -387,11 +497,21 @@ fn a_gateway_over_mqtt_reaches_a_worker() {
         if p.get("lift-m").is_some_and(|x| x.1 == rows) {
             break;
         }
-        assert!(t0.elapsed() < PATIENCE, "the worker did not apply the MQTT telemetry: {p:?}");
+        assert!(
+            t0.elapsed() < PATIENCE,
+            "the worker did not apply the MQTT telemetry: {p:?}"
+        );
         std::thread::sleep(Duration::from_millis(200));
     }
-    let got = risk_rows(&dir, &header(&dir), &gw.outputs().unwrap()).remove("lift-m").unwrap_or_default();
-    assert!(got.len() <= want.len() && got.len() + 3 >= want.len(), "{} rows of {}", got.len(), want.len());
+    let got = risk_rows(&dir, &header(&dir), &gw.outputs().unwrap())
+        .remove("lift-m")
+        .unwrap_or_default();
+    assert!(
+        got.len() <= want.len() && got.len() + 3 >= want.len(),
+        "{} rows of {}",
+        got.len(),
+        want.len()
+    );
     for (k, (r, _, _)) in got.iter().enumerate() {
         assert_eq!(r, &want[k], "trip row {k}");
     }
@@ -403,16 +523,33 @@ fn a_gateway_over_mqtt_reaches_a_worker() {
 #[test]
 fn bad_nats_settings_are_refused_with_one_line() {
     for (args, want) in [
-        (&["--nats", "http://127.0.0.1:4222"][..], "is not nats://host:port"),
+        (
+            &["--nats", "http://127.0.0.1:4222"][..],
+            "is not nats://host:port",
+        ),
         (&["--nats", "nats://127.0.0.1"][..], "has no :port"),
-        (&["--nats", "nats://127.0.0.1:4222", "--mqtt", "mqtt://127.0.0.1:1883"][..], "exclude each other"),
+        (
+            &[
+                "--nats",
+                "nats://127.0.0.1:4222",
+                "--mqtt",
+                "mqtt://127.0.0.1:1883",
+            ][..],
+            "exclude each other",
+        ),
         // Nobody listens on port 1 of loopback.
-        (&["--nats", "nats://127.0.0.1:1", "--listen", "127.0.0.1:0"][..], "nats nats://127.0.0.1:1"),
+        (
+            &["--nats", "nats://127.0.0.1:1", "--listen", "127.0.0.1:0"][..],
+            "nats nats://127.0.0.1:1",
+        ),
     ] {
         let out = Command::new(BIN).arg("serve").args(args).output().unwrap();
         let err = String::from_utf8_lossy(&out.stderr);
         assert!(!out.status.success(), "{args:?}");
         assert_eq!(err.lines().count(), 1, "{args:?}: {err}");
-        assert!(err.contains(want) && !err.contains("panicked"), "{args:?}: {err}");
+        assert!(
+            err.contains(want) && !err.contains("panicked"),
+            "{args:?}: {err}"
+        );
     }
 }

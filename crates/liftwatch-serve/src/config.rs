@@ -240,13 +240,22 @@ impl Config {
             }
         }
         if !(1..=1024).contains(&self.nats_partitions) {
-            return Err(format!("nats_partitions {} is outside 1 to 1024", self.nats_partitions));
+            return Err(format!(
+                "nats_partitions {} is outside 1 to 1024",
+                self.nats_partitions
+            ));
         }
         if !(1..=5).contains(&self.nats_replicas) {
-            return Err(format!("nats_replicas {} is outside 1 to 5", self.nats_replicas));
+            return Err(format!(
+                "nats_replicas {} is outside 1 to 5",
+                self.nats_replicas
+            ));
         }
         if !(self.nats_lease_s >= 1.0 && self.nats_lease_s <= 600.0) {
-            return Err(format!("nats_lease_s {} is outside 1 to 600", self.nats_lease_s));
+            return Err(format!(
+                "nats_lease_s {} is outside 1 to 600",
+                self.nats_lease_s
+            ));
         }
         if self.mqtt_client_id.is_empty() || self.mqtt_client_id.len() > 64 {
             return Err("mqtt_client_id must be 1 to 64 characters".into());

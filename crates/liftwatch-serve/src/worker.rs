@@ -155,7 +155,9 @@ impl Feed<'_> {
         readings: &[(liftwatch::ingest::Signal, f64, f64)],
     ) -> Result<(), String> {
         for (sig, t, v) in readings {
-            aligner.push(*sig, *t, *v, self).map_err(|e| e.to_string())?;
+            aligner
+                .push(*sig, *t, *v, self)
+                .map_err(|e| e.to_string())?;
         }
         self.counters.batches += 1;
         self.counters.readings += readings.len() as u64;

@@ -106,7 +106,12 @@ pub fn batches(text: &str, period_s: f64) -> Vec<String> {
 
 /// One sender thread's plan: (due time in s, elevator index, batch) for each of its elevators
 /// and `batches` batches, elevator i's batch b due at (b + i/n)·`period_s`, in due order.
-pub fn plan(mine: impl Iterator<Item = usize>, n: usize, batches: usize, period_s: f64) -> Vec<(f64, usize, usize)> {
+pub fn plan(
+    mine: impl Iterator<Item = usize>,
+    n: usize,
+    batches: usize,
+    period_s: f64,
+) -> Vec<(f64, usize, usize)> {
     let mut plan = Vec::new();
     for i in mine {
         for b in 0..batches {

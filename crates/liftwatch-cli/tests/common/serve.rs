@@ -53,7 +53,10 @@ impl Server {
 
     pub fn start_with(data: &Path, listen: &str, token: Option<&str>, extra: &[&str]) -> Server {
         let data = data.to_str().expect("a UTF-8 path");
-        Server::spawn(&[&["--data", data, "--listen", listen][..], extra].concat(), token)
+        Server::spawn(
+            &[&["--data", data, "--listen", listen][..], extra].concat(),
+            token,
+        )
     }
 
     /// `liftwatch serve ARGS…`, once it printed its listening line.

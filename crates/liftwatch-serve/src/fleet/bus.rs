@@ -187,7 +187,8 @@ impl Bus {
             num_replicas: replicas,
             ..Default::default()
         };
-        let leases = ensure_bucket(&js, || bucket(LEASES, 1, Duration::from_secs_f64(lease_s))).await?;
+        let leases =
+            ensure_bucket(&js, || bucket(LEASES, 1, Duration::from_secs_f64(lease_s))).await?;
         let state = ensure_bucket(&js, || bucket(STATE, 1, Duration::ZERO)).await?;
         let models = ensure_bucket(&js, || bucket(MODELS, 16, Duration::ZERO)).await?;
         Ok(Bus {
@@ -212,7 +213,12 @@ impl Bus {
         let name = format!("part-{p}");
         let floor = match self.telemetry.get_consumer::<pull::Config>(&name).await {
             Ok(mut c) => {
-                let f = c.info().await.map_err(|e| line(&name, e))?.ack_floor.stream_sequence;
+                let f = c
+                    .info()
+                    .await
+                    .map_err(|e| line(&name, e))?
+                    .ack_floor
+                    .stream_sequence;
                 self.telemetry
                     .delete_consumer(&name)
                     .await
@@ -388,10 +394,16 @@ impl Bus {
     ) -> Result<Option<u64>, String> {
         let r = match rev {
             Some(rev) => self.state.update(id, value, rev).await.map_err(|e| {
-                (e.kind() == kv::UpdateErrorKind::WrongLastRevision, line("state", e))
+                (
+                    e.kind() == kv::UpdateErrorKind::WrongLastRevision,
+                    line("state", e),
+                )
             }),
             None => self.state.create(id, value).await.map_err(|e| {
-                (e.kind() == kv::CreateErrorKind::AlreadyExists, line("state", e))
+                (
+                    e.kind() == kv::CreateErrorKind::AlreadyExists,
+                    line("state", e),
+                )
             }),
         };
         match r {
@@ -496,7 +508,10 @@ impl Bus {
     pub async fn publish_telemetry(&self, id: &str, body: Bytes) -> Result<u64, String> {
         // The same body sent again (a retry after a lost acknowledgement) is stored once.
         let mut h = HeaderMap::new();
-        h.insert(async_nats::header::NATS_MESSAGE_ID, format!("{id}:{}", digest(&body)).as_str());
+        h.insert(
+            async_nats::header::NATS_MESSAGE_ID,
+            format!("{id}:{}", digest(&body)).as_str(),
+        );
         let ack = self
             .js
             .publish_with_headers(telemetry_subject(id), h, body)
@@ -517,7 +532,13 @@ impl Bus {
     pub async fn put_model(&self, id: &str, body: &[u8]) -> Result<u64, String> {
         let d = digest(body);
         let key = format!("body.{d}");
-        if self.models.get(&key).await.map_err(|e| line("model", e))?.is_none() {
+        if self
+            .models
+            .get(&key)
+            .await
+            .map_err(|e| line("model", e))?
+            .is_none()
+        {
             self.models
                 .put(&key, Bytes::copy_from_slice(body))
                 .await
@@ -601,7 +622,10 @@ impl Bus {
 }
 
 /// The stream of `cfg`, made if missing (several workers may start together).
-async fn ensure_stream(js: &jetstream::Context, cfg: stream::Config) -> Result<stream::Stream, String> {
+async fn ensure_stream(
+    js: &jetstream::Context,
+    cfg: stream::Config,
+) -> Result<stream::Stream, String> {
     let name = cfg.name.clone();
     for _ in 0..5 {
         if let Ok(s) = js.get_stream(&name).await {
@@ -615,7 +639,9 @@ async fn ensure_stream(js: &jetstream::Context, cfg: stream::Config) -> Result<s
             }
         }
     }
-    Err(format!("stream {name}: cannot be made (is JetStream enabled on the server?)"))
+    Err(format!(
+        "stream {name}: cannot be made (is JetStream enabled on the server?)"
+    ))
 }
 
 /// The bucket of `cfg`, made if missing.
@@ -636,7 +662,9 @@ async fn ensure_bucket(
             }
         }
     }
-    Err(format!("bucket {name}: cannot be made (is JetStream enabled on the server?)"))
+    Err(format!(
+        "bucket {name}: cannot be made (is JetStream enabled on the server?)"
+    ))
 }
 
 #[cfg(test)]
@@ -650,7 +678,12 @@ mod tests {
         assert_eq!(id_of_subject("liftwatch.telemetry.x"), None);
         assert_eq!(telemetry_subject("e1"), "liftwatch.telemetry.e1");
         let m = server_mappings(8);
-        assert!(m.contains("\"liftwatch.telemetry.*\": \"liftwatch.part.{{partition(8,1)}}.{{wildcard(1)}}\""), "{m}");
+        assert!(
+            m.contains(
+                "\"liftwatch.telemetry.*\": \"liftwatch.part.{{partition(8,1)}}.{{wildcard(1)}}\""
+            ),
+            "{m}"
+        );
         assert_eq!(digest(b""), "cbf29ce484222325");
         assert_ne!(digest(b"a"), digest(b"b"));
     }

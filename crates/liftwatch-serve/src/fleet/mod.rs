@@ -175,7 +175,14 @@ pub fn serve(cfg: Config, token: Option<String>) -> Result<(), String> {
             crate::store::now().to_bits() % 1_000_000
         );
         let bus = Arc::new(
-            Bus::connect(&urls, &name, cfg.nats_replicas, cfg.nats_lease_s, cfg.keep_raw_days).await?,
+            Bus::connect(
+                &urls,
+                &name,
+                cfg.nats_replicas,
+                cfg.nats_lease_s,
+                cfg.keep_raw_days,
+            )
+            .await?,
         );
         let stats = Arc::new(Stats::default());
         let addr: std::net::SocketAddr = cfg
@@ -243,14 +250,25 @@ async fn upload(
         .and_then(|v| v.strip_prefix("Bearer "));
     match (&h.token, given) {
         (Some(t), Some(g)) if t == g => {}
-        (None, _) => return err(StatusCode::FORBIDDEN, "this service is read-only (no token)".into()),
+        (None, _) => {
+            return err(
+                StatusCode::FORBIDDEN,
+                "this service is read-only (no token)".into(),
+            )
+        }
         _ => return err(StatusCode::UNAUTHORIZED, "a write needs the token".into()),
     }
     if !valid_id(&id) {
-        return err(StatusCode::BAD_REQUEST, "elevator id is not [A-Za-z0-9_-]{1,64}".into());
+        return err(
+            StatusCode::BAD_REQUEST,
+            "elevator id is not [A-Za-z0-9_-]{1,64}".into(),
+        );
     }
     if body.len() > h.max_body {
-        return err(StatusCode::PAYLOAD_TOO_LARGE, "model larger than max_body_bytes".into());
+        return err(
+            StatusCode::PAYLOAD_TOO_LARGE,
+            "model larger than max_body_bytes".into(),
+        );
     }
     if let Err(e) = liftwatch::file::load_str(
         &String::from_utf8_lossy(&body),
@@ -274,7 +292,9 @@ impl Fleet {
         let active = self.active.clone();
         tokio::spawn(async move {
             while let Some((id, d, rev)) = watch.next().await {
-                let mut a = active.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+                let mut a = active
+                    .lock()
+                    .unwrap_or_else(std::sync::PoisonError::into_inner);
                 match d {
                     Some(d) => note_active(&mut a, &id, d, rev),
                     None => {
@@ -285,12 +305,21 @@ impl Fleet {
         });
         let mut stop = Box::pin(crate::shutdown_signal());
         let tick = Duration::from_secs_f64(self.cfg.nats_lease_s / 3.0);
-        tokio::spawn(renew(self.bus.clone(), self.name.clone(), self.leases.clone(), tick));
+        tokio::spawn(renew(
+            self.bus.clone(),
+            self.name.clone(),
+            self.leases.clone(),
+            tick,
+        ));
         let every = Duration::from_secs_f64(self.cfg.checkpoint_every_s);
         let (mut last_tick, mut last_ckpt) = (Instant::now() - tick, Instant::now());
         loop {
             let lost: Vec<u32> = std::mem::take(
-                &mut *self.leases.lost.lock().unwrap_or_else(std::sync::PoisonError::into_inner),
+                &mut *self
+                    .leases
+                    .lost
+                    .lock()
+                    .unwrap_or_else(std::sync::PoisonError::into_inner),
             );
             for p in lost {
                 log("warn", &format!("partition {p}: lease lost; dropped"));
@@ -339,7 +368,10 @@ impl Fleet {
 
     /// Final checkpoints; the leases are given up.
     async fn finish(&mut self) {
-        log("info", "shutting down: final checkpoint, partitions given up");
+        log(
+            "info",
+            "shutting down: final checkpoint, partitions given up",
+        );
         for p in self.parts.keys().copied().collect::<Vec<_>>() {
             self.checkpoint(p).await;
             self.give_up(p).await;
@@ -366,7 +398,10 @@ impl Fleet {
             let p = *self.parts.keys().next_back().expect("more than the share");
             self.checkpoint(p).await;
             self.give_up(p).await;
-            log("info", &format!("partition {p}: given up ({} workers)", workers.len()));
+            log(
+                "info",
+                &format!("partition {p}: given up ({} workers)", workers.len()),
+            );
         }
         let taken: HashSet<u32> = taken.into_iter().collect();
         for p in 0..parts {
@@ -399,14 +434,18 @@ impl Fleet {
             );
             log(
                 "info",
-                &format!("partition {p}: taken in {:.0} ms", t0.elapsed().as_secs_f64() * 1e3),
+                &format!(
+                    "partition {p}: taken in {:.0} ms",
+                    t0.elapsed().as_secs_f64() * 1e3
+                ),
             );
         }
         *self
             .stats
             .partitions
             .lock()
-            .unwrap_or_else(std::sync::PoisonError::into_inner) = self.parts.keys().copied().collect();
+            .unwrap_or_else(std::sync::PoisonError::into_inner) =
+            self.parts.keys().copied().collect();
         Ok(())
     }
 
@@ -431,7 +470,9 @@ impl Fleet {
     async fn turn(&mut self, p: u32) -> Result<usize, String> {
         let recs = {
             let part = &self.parts[&p];
-            self.bus.fetch(&part.consumer, FETCH_MAX, FETCH_WAIT).await?
+            self.bus
+                .fetch(&part.consumer, FETCH_MAX, FETCH_WAIT)
+                .await?
         };
         let n = recs.len();
         for rec in recs {
@@ -454,7 +495,11 @@ impl Fleet {
             self.parts.get_mut(&p).expect("held").delivered = rec.delivery;
             if !self.elevators.contains_key(&rec.id) {
                 self.load(p, &rec.id).await?;
-                self.parts.get_mut(&p).expect("held").ids.insert(rec.id.clone());
+                self.parts
+                    .get_mut(&p)
+                    .expect("held")
+                    .ids
+                    .insert(rec.id.clone());
             }
             self.switch_model(&rec.id).await?;
             self.stats.records.fetch_add(1, Ordering::Relaxed);
@@ -481,7 +526,10 @@ impl Fleet {
                     }
                     Err(why) => {
                         self.stats.refused.fetch_add(1, Ordering::Relaxed);
-                        log("warn", &format!("elevator {}: record {} refused: {}", rec.id, rec.seq, why.1));
+                        log(
+                            "warn",
+                            &format!("elevator {}: record {} refused: {}", rec.id, rec.seq, why.1),
+                        );
                     }
                 }
                 e.applied_seq = rec.seq;
@@ -550,7 +598,10 @@ impl Fleet {
             }
         };
         if let Some((d, rev)) = self.bus.active_model(id).await? {
-            let mut a = self.active.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+            let mut a = self
+                .active
+                .lock()
+                .unwrap_or_else(std::sync::PoisonError::into_inner);
             note_active(&mut a, id, d, rev);
         }
         self.elevators.insert(id.to_string(), e);
@@ -593,7 +644,9 @@ impl Fleet {
 
     /// Publishes the outputs of partition `p`, writes its dirty checkpoints, commits it.
     async fn checkpoint(&mut self, p: u32) {
-        let Some(part) = self.parts.get(&p) else { return };
+        let Some(part) = self.parts.get(&p) else {
+            return;
+        };
         let dirty: Vec<String> = part
             .ids
             .iter()
@@ -607,7 +660,10 @@ impl Fleet {
             outs.extend(outputs(id, e));
         }
         if let Err(e) = self.bus.publish(&outs).await {
-            log("warn", &format!("partition {p}: outputs not stored, retried: {e}"));
+            log(
+                "warn",
+                &format!("partition {p}: outputs not stored, retried: {e}"),
+            );
             return;
         }
         let mut writes = Vec::with_capacity(dirty.len());
@@ -622,7 +678,8 @@ impl Fleet {
                 }),
                 counters: e.counters,
             };
-            let bytes = Bytes::from(serde_json::to_vec(&c).expect("a checkpoint always serialises"));
+            let bytes =
+                Bytes::from(serde_json::to_vec(&c).expect("a checkpoint always serialises"));
             writes.push(self.bus.save_state(id, e.state_rev, bytes));
         }
         let results = futures_util::future::join_all(writes).await;
@@ -638,20 +695,29 @@ impl Fleet {
                 }
                 Ok(None) => fenced = true,
                 Err(e) => {
-                    log("warn", &format!("partition {p}: checkpoint of {id} failed: {e}"));
+                    log(
+                        "warn",
+                        &format!("partition {p}: checkpoint of {id} failed: {e}"),
+                    );
                     return;
                 }
             }
         }
         if fenced {
-            log("warn", &format!("partition {p}: another worker wrote its checkpoints; dropped"));
+            log(
+                "warn",
+                &format!("partition {p}: another worker wrote its checkpoints; dropped"),
+            );
             self.give_up(p).await;
             return;
         }
         let part = self.parts.get_mut(&p).expect("held");
         if let Some(pos) = part.last.take() {
             if let Err(e) = self.bus.commit(&pos).await {
-                log("warn", &format!("partition {p}: commit failed, the replay is longer: {e}"));
+                log(
+                    "warn",
+                    &format!("partition {p}: commit failed, the replay is longer: {e}"),
+                );
             }
         }
     }
@@ -704,7 +770,11 @@ fn outputs(id: &str, e: &Elevator) -> Vec<Output> {
     let mut last = (None, 0usize);
     for (kind, tag, seq, line) in trips.chain(events) {
         // k counts the outputs of one kind from one record.
-        let k = if last.0 == Some((tag, seq)) { last.1 + 1 } else { 0 };
+        let k = if last.0 == Some((tag, seq)) {
+            last.1 + 1
+        } else {
+            0
+        };
         last = (Some((tag, seq)), k);
         out.push(Output {
             kind,

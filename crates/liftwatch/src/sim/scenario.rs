@@ -181,23 +181,13 @@ impl Scenario {
                 ),
             });
         }
-        if !onset_s.is_finite() || !full_at_s.is_finite() || full_at_s < onset_s {
-            return Err(Error::InvalidConfig {
-                field: "onset_s",
-                why: format!("onset {onset_s} s and full severity at {full_at_s} s must be finite and in order"),
-            });
-        }
-        if !(severity.is_finite() && severity >= 0.0) {
-            return Err(Error::InvalidConfig {
-                field: "severity",
-                why: format!("{severity} must be >= 0"),
-            });
-        }
-        let full_at_s = if ramp == Ramp::Step {
-            onset_s
-        } else {
-            full_at_s
-        };
+        let full_at_s = ramp_timing(
+            ("onset_s", "full severity"),
+            onset_s,
+            ramp,
+            full_at_s,
+            severity,
+        )?;
         Ok(Scenario {
             mode: Some(mode),
             onset_s,
@@ -256,6 +246,42 @@ impl Scenario {
         }
         e
     }
+}
+
+/// Checks the timing of a degradation that starts at `onset_s` and reaches full `severity` at
+/// `full_at_s` along `ramp`, and returns the effective full time (a step is full at its onset).
+/// `(field, full)` name the onset's field and what "full" is in the message (a machine's full
+/// severity, a door's full wear).
+///
+/// # Errors
+/// [`Error::InvalidConfig`] for times that are not finite or out of order, or a severity that
+/// is negative or not finite.
+pub(crate) fn ramp_timing(
+    (field, full): (&'static str, &str),
+    onset_s: f64,
+    ramp: Ramp,
+    full_at_s: f64,
+    severity: f64,
+) -> Result<f64> {
+    if !onset_s.is_finite() || !full_at_s.is_finite() || full_at_s < onset_s {
+        return Err(Error::InvalidConfig {
+            field,
+            why: format!(
+                "onset {onset_s} s and {full} at {full_at_s} s must be finite and in order"
+            ),
+        });
+    }
+    if !(severity.is_finite() && severity >= 0.0) {
+        return Err(Error::InvalidConfig {
+            field: "severity",
+            why: format!("{severity} must be >= 0"),
+        });
+    }
+    Ok(if ramp == Ramp::Step {
+        onset_s
+    } else {
+        full_at_s
+    })
 }
 
 /// Brake drag weight w by travel: 1 downward, 0.6 decelerating upward, 0.2 otherwise.

@@ -76,25 +76,13 @@ impl DoorBehaviour {
     /// [`Error::InvalidConfig`] for times that are not finite or out of order, or a negative
     /// severity.
     pub fn slowing(onset_s: f64, ramp: Ramp, full_at_s: f64, severity: f64) -> Result<Self> {
-        if !onset_s.is_finite() || !full_at_s.is_finite() || full_at_s < onset_s {
-            return Err(Error::InvalidConfig {
-                field: "door onset",
-                why: format!(
-                    "onset {onset_s} s and full wear at {full_at_s} s must be finite and in order"
-                ),
-            });
-        }
-        if !(severity.is_finite() && severity >= 0.0) {
-            return Err(Error::InvalidConfig {
-                field: "severity",
-                why: format!("{severity} must be >= 0"),
-            });
-        }
-        let full_at_s = if ramp == Ramp::Step {
-            onset_s
-        } else {
-            full_at_s
-        };
+        let full_at_s = super::scenario::ramp_timing(
+            ("door onset", "full wear"),
+            onset_s,
+            ramp,
+            full_at_s,
+            severity,
+        )?;
         Ok(DoorBehaviour::Slowing {
             onset_s,
             ramp,

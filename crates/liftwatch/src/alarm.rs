@@ -35,6 +35,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::ingest::Signal;
 use crate::mode::{MACHINE_MODES, N_MODES};
 use crate::risk::{RiskConfig, TripAssessment};
 
@@ -166,6 +167,10 @@ pub struct Event {
     pub mode: FaultMode,
     /// Combined risk at the change.
     pub risk: f64,
+    /// The channel a `sensor` event is about (DATA.md §4: the event names the channel);
+    /// absent on the other modes.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub channel: Option<Signal>,
     /// Supporting figures.
     #[serde(flatten)]
     pub evidence: Evidence,
@@ -378,6 +383,7 @@ mod tests {
             level: Level::Advisory,
             mode: FaultMode::Friction,
             risk: 412.5,
+            channel: None,
             evidence: Evidence::default(),
         };
         let line = e.to_json_line();

@@ -226,6 +226,7 @@ impl Baseline {
                 level,
                 mode,
                 risk: f64::from(u8::from(level == Level::Alarm)),
+                channel: None,
                 evidence,
             });
             self.level = level;

@@ -12,8 +12,13 @@
 //! per parking: z = mean load reading while the car stood still with the door closed, from its
 //!              5th minute on (nobody waits five minutes in a closed car: it is empty);
 //!              |z − z_healthy| above the limit calibrated on the training → load-cell zero drift
+//! per stop:    y = median voltage of the standstill from its 5th second on (first minute)
+//!              d = y − y_healthy;  u± = clip((±d − a)/σ, ±3)   a: allowance, σ: spread
+//!              G± ← min(2h, max(0, G± + u± − ½))               two CUSUMs of a 1σ shift
+//!              max G± ≥ h                                       → voltage sensor offset
 //! score = 0.9·score + 0.1·implausible           exponential average over ~10 trips
 //! sensor = channel fault or score ≥ f;  released only when score < f/2 (hysteresis)
+//! channel = the one the first failing check reads (speed, load, voltage, a missing one, …)
 //! ```
 //!
 //! An implausible trip is not machine evidence: the risk stage never sees it.
@@ -23,12 +28,22 @@
 //! proportional motor signature), and the risk named `motor` half a day into a 2 %/day drift.
 //! The empty car is the one load the cell must read as about zero whatever the traffic, so its
 //! reading is the witness the machine cannot fake.
+//!
+//! Why the rest-voltage check: an offset of the voltage sensor adds the same volts to every
+//! reading, in both directions alike; on the moving samples that is nearly the friction
+//! signature (a constant voltage against φ·Kd·F_c, which differs only by the drive's
+//! efficiency between the directions), so the risk named `friction` or `unknown`. At a stop
+//! no machine fault moves the reading: a drive off at rest reads the sensor's own zero, one
+//! energised at rest reads U0 plus the holding force's resistive drop; both come back stop
+//! after stop on a healthy machine, and a shift of them is the sensor's.
 
 use serde::{Deserialize, Serialize};
 
 use crate::exact;
 use crate::features::Trip;
+use crate::ingest::Signal;
 use crate::sample::Sample;
+use crate::stats::gaussian_llr;
 
 /// A motor voltage reading above this is no drive's (elevator drives run at up to about 1 kV):
 /// the sensor or the logger is broken, and the trip is not machine evidence. It also keeps
@@ -55,6 +70,80 @@ const ZERO_LIMIT_MARGIN: f64 = 1.5;
 /// The zero limit is never below this (percent of rated load): one quantisation step of a
 /// typical load cell, below which a shift is not a fault worth a visit.
 const ZERO_LIMIT_FLOOR_PCT: f64 = 1.0;
+
+/// Seconds of a standstill before its voltage counts as the rest reading: a drive drops the
+/// brake and de-energises (or settles its holding current) within a second or two of
+/// levelling, and a low-pass voltage sensor has followed within a few of its time constants.
+pub const REST_SETTLE_S: f64 = 5.0;
+
+/// Settled readings of a stop its rest reading is the median of: a minute. The median of
+/// them leaves out the pre-torque of the next start (a second or two of the drive energised
+/// before the car moves), and a long parking adds nothing the first minute has not said.
+const REST_MAX_SAMPLES: usize = 60;
+
+/// Fewest settled readings that make a stop's rest reading (a door cycle at 1 Hz gives more).
+const REST_MIN_SAMPLES: usize = 5;
+
+/// Fewest stops of a training that calibrate the rest-voltage check.
+const REST_MIN_STOPS: usize = 20;
+
+/// The allowance of the rest-voltage check is never below this share of the drive's voltage
+/// at rated speed (U0 + Ke·v_rated): the accuracy of a 1 % class voltage transducer, below
+/// which an offset is within the sensor's own specification.
+pub const REST_ALLOWANCE_FRAC: f64 = 0.01;
+
+/// The spread σ the rest readings are judged in is never below this share of the allowance:
+/// a drive off at rest may read the very same quantised value stop after stop (σ = 0), and a
+/// shift past the allowance by three tenths of it then counts as three σ, the clip.
+const REST_SD_FLOOR_FRAC: f64 = 0.1;
+
+/// Threshold of the rest-voltage CUSUMs (log-likelihood ratio): ln(160 000), an elevator-year
+/// of stops of a busy car, so by Wald's bound (ARL0 ≥ e^h) a healthy sensor is flagged less
+/// than once a year even before the allowance, which keeps healthy increments below zero.
+/// A shift well past the allowance gains 2.5 a stop (clip 3 − ½) and is flagged at the fifth.
+pub const REST_H: f64 = 12.0;
+
+/// A stop's standardised excess enters the rest-voltage CUSUMs clipped to ±3, as a trip's
+/// score enters the risk stage's: one odd stop (a reading during a re-levelling) cannot make
+/// a fault alone.
+const REST_CLIP: f64 = 3.0;
+
+/// One stop's settled voltage readings: the one accumulator of the rest-voltage check, run on
+/// the training by [`SensorLimits::calibrate_rest_voltage`] and on every sample by
+/// [`SensorCheck`].
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct RestVoltage {
+    /// Since when the car has stood still (None while it moves).
+    since: Option<StateF64>,
+    /// Settled readings of this stop, at most [`REST_MAX_SAMPLES`].
+    readings: Vec<f64>,
+}
+
+impl RestVoltage {
+    /// Takes one sample (`thr` the motion threshold, m/s); returns the stop's rest reading
+    /// (V) when this sample ends a stop that gave enough settled readings.
+    pub fn push(&mut self, x: &Sample, thr: f64) -> Option<f64> {
+        if !x.speed.is_finite() {
+            // A dropout of the speed says nothing about motion: the stop is not trusted.
+            *self = RestVoltage::default();
+            return None;
+        }
+        if x.speed > thr {
+            let out = (self.readings.len() >= REST_MIN_SAMPLES)
+                .then(|| crate::stats::median(&self.readings));
+            *self = RestVoltage::default();
+            return out;
+        }
+        let since = self.since.get_or_insert(StateF64(x.time)).0;
+        if x.time - since >= REST_SETTLE_S
+            && x.voltage.is_finite()
+            && self.readings.len() < REST_MAX_SAMPLES
+        {
+            self.readings.push(x.voltage);
+        }
+        None
+    }
+}
 
 /// The empty car's load readings while parked: the one accumulator of the zero check, run on
 /// the training by [`SensorLimits::calibrate_load_zero`] and on every sample by [`SensorCheck`].
@@ -132,6 +221,16 @@ pub struct SensorLimits {
     /// Largest plausible deviation of the empty car's reading from `load_zero_pct` (percent).
     #[serde(default = "default_zero_limit")]
     pub load_zero_limit_pct: f64,
+    /// The healthy rest reading of the voltage ([`RestVoltage`], V); `None` when the training
+    /// had too few stops, or for models written before the check.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rest_voltage_v: Option<f64>,
+    /// Allowance a: a stop's reading within it of `rest_voltage_v` is healthy (V).
+    #[serde(default)]
+    pub rest_voltage_allowance_v: f64,
+    /// Spread σ the excess over the allowance is counted in (V).
+    #[serde(default)]
+    pub rest_voltage_sd_v: f64,
 }
 
 fn default_zero_limit() -> f64 {
@@ -180,7 +279,18 @@ impl SensorLimits {
             self.load_zero_limit_pct,
             0.01,
             1000.0,
-        )
+        )?;
+        if let Some(u) = self.rest_voltage_v {
+            check("sensor.rest_voltage_v", u, -1e4, 1e4)?;
+            check(
+                "sensor.rest_voltage_allowance_v",
+                self.rest_voltage_allowance_v,
+                1e-6,
+                1e4,
+            )?;
+            check("sensor.rest_voltage_sd_v", self.rest_voltage_sd_v, 1e-9, 1e4)?;
+        }
+        Ok(())
     }
 }
 
@@ -196,6 +306,9 @@ impl Default for SensorLimits {
             implausible_fraction: 0.5,
             load_zero_pct: None,
             load_zero_limit_pct: ZERO_LIMIT_FLOOR_PCT,
+            rest_voltage_v: None,
+            rest_voltage_allowance_v: 0.0,
+            rest_voltage_sd_v: 0.0,
         }
     }
 }
@@ -222,6 +335,34 @@ impl SensorLimits {
             .fold(0.0, f64::max);
         self.load_zero_pct = Some(reference);
         self.load_zero_limit_pct = (ZERO_LIMIT_MARGIN * widest).max(ZERO_LIMIT_FLOOR_PCT);
+    }
+}
+
+impl SensorLimits {
+    /// Calibrates the rest-voltage check on healthy samples (`thr` the motion threshold,
+    /// `rated_voltage_v` the drive's voltage at rated speed): the median of the stops' rest
+    /// readings; the allowance [`ZERO_LIMIT_MARGIN`] times their largest deviation from it,
+    /// at least [`REST_ALLOWANCE_FRAC`] of the rated voltage; σ their robust spread, at least
+    /// [`REST_SD_FLOOR_FRAC`] of the allowance. A training with fewer than
+    /// [`REST_MIN_STOPS`] stops leaves the check off.
+    pub fn calibrate_rest_voltage(&mut self, samples: &[Sample], thr: f64, rated_voltage_v: f64) {
+        let mut rest = RestVoltage::default();
+        let readings: Vec<f64> = samples.iter().filter_map(|x| rest.push(x, thr)).collect();
+        let floor = REST_ALLOWANCE_FRAC * rated_voltage_v.abs();
+        if readings.len() < REST_MIN_STOPS || !(floor > 0.0) {
+            self.rest_voltage_v = None;
+            return;
+        }
+        let reference = crate::stats::median(&readings);
+        let widest = readings
+            .iter()
+            .map(|y| (y - reference).abs())
+            .fold(0.0, f64::max);
+        let allowance = (ZERO_LIMIT_MARGIN * widest).max(floor);
+        let spread = crate::stats::robust_sigma(readings.iter().copied());
+        self.rest_voltage_v = Some(reference);
+        self.rest_voltage_allowance_v = allowance;
+        self.rest_voltage_sd_v = spread.max(REST_SD_FLOOR_FRAC * allowance);
     }
 }
 
@@ -262,6 +403,21 @@ pub struct SensorCheck {
     /// The empty car's reading has left its healthy range.
     #[serde(default)]
     zero_drift: bool,
+    /// The stop in progress, for the rest-voltage check.
+    #[serde(default)]
+    rest: RestVoltage,
+    /// The rest-voltage CUSUMs G+ (reading up) and G− (down).
+    #[serde(default, with = "exact::array")]
+    rest_g: [f64; 2],
+    /// The channel the last missing-channel check found missing.
+    #[serde(default)]
+    missing_channel: Option<Signal>,
+    /// The channel behind the last implausible trip.
+    #[serde(default)]
+    implausible_channel: Option<Signal>,
+    /// The channel a reading out of physics came from since the last completed trip.
+    #[serde(default)]
+    out_of_range_channel: Option<Signal>,
 }
 
 /// An f64 that serialises exactly, for tuples.
@@ -285,6 +441,11 @@ impl SensorCheck {
             floor: f64::NAN,
             parking: Parking::new(),
             zero_drift: false,
+            rest: RestVoltage::default(),
+            rest_g: [0.0; 2],
+            missing_channel: None,
+            implausible_channel: None,
+            out_of_range_channel: None,
         }
     }
 
@@ -294,11 +455,31 @@ impl SensorCheck {
         self.zero_drift
     }
 
+    /// True while the voltage's rest reading has shifted: the voltage sensor is offset.
+    pub fn voltage_offset(&self) -> bool {
+        self.rest_g[0].max(self.rest_g[1]) >= REST_H
+    }
+
     /// Takes one sample into the zero check: a parking that ends sets or clears the drift.
     fn zero_check(&mut self, x: &Sample, cfg: &SensorLimits, thr: f64) {
         let reading = self.parking.push(x, thr);
         if let (Some(z), Some(reference)) = (reading, cfg.load_zero_pct) {
             self.zero_drift = (z - reference).abs() > cfg.load_zero_limit_pct;
+        }
+    }
+
+    /// Takes one sample into the rest-voltage check: a stop that ends moves its two CUSUMs.
+    /// They are capped at 2h, so a repaired sensor is released within a few tens of stops.
+    fn rest_check(&mut self, x: &Sample, cfg: &SensorLimits, thr: f64) {
+        let reading = self.rest.push(x, thr);
+        let (Some(y), Some(reference)) = (reading, cfg.rest_voltage_v) else {
+            return;
+        };
+        let d = y - reference;
+        for (g, side) in self.rest_g.iter_mut().zip([d, -d]) {
+            let u = ((side - cfg.rest_voltage_allowance_v) / cfg.rest_voltage_sd_v)
+                .clamp(-REST_CLIP, REST_CLIP);
+            *g = (*g + gaussian_llr(1.0, u)).clamp(0.0, 2.0 * REST_H);
         }
     }
 
@@ -310,6 +491,7 @@ impl SensorCheck {
     /// Looks at one raw sample; `thr` is the motion threshold (m/s).
     pub fn sample(&mut self, x: &Sample, cfg: &SensorLimits, thr: f64) {
         self.zero_check(x, cfg, thr);
+        self.rest_check(x, cfg, thr);
         if x.speed.is_finite() {
             if x.speed > thr {
                 self.still_since = f64::NAN;
@@ -332,22 +514,24 @@ impl SensorCheck {
             // of standstill is a floor change without speed (a stuck or dead speed signal).
             if self.floor.is_finite() && x.floor != self.floor && x.time - self.still_since > 10.0 {
                 self.observe(false);
+                self.implausible_channel = Some(Signal::Speed);
             }
             self.floor = x.floor;
         }
         let ch = [x.speed, x.direction, x.voltage, x.load, x.door, x.floor];
         let any = ch.iter().any(|v| v.is_finite());
-        let mut missing = false;
-        for (seen, v) in self.last_seen.iter_mut().zip(ch) {
+        let mut missing = None;
+        for ((seen, v), signal) in self.last_seen.iter_mut().zip(ch).zip(Signal::ALL) {
             if v.is_finite() || seen.is_nan() {
                 *seen = x.time;
             } else if any && x.time - *seen >= cfg.missing_limit_s {
-                missing = true;
+                missing = missing.or(Some(signal));
             }
         }
         // A gap of every channel is the logger's, not a sensor's: it neither sets nor clears.
         if any {
-            self.missing = missing;
+            self.missing = missing.is_some();
+            self.missing_channel = missing;
         }
         let load_bad =
             x.load.is_finite() && !(cfg.min_load_pct..=cfg.max_load_pct).contains(&x.load);
@@ -356,6 +540,14 @@ impl SensorCheck {
         if load_bad || voltage_bad || speed_bad {
             // Named for the load cell, its first use; any channel out of physics counts.
             self.load_out_of_range = true;
+            let channel = if load_bad {
+                Signal::Load
+            } else if voltage_bad {
+                Signal::Voltage
+            } else {
+                Signal::Speed
+            };
+            self.out_of_range_channel.get_or_insert(channel);
         }
         if x.door.is_finite() {
             let closing = self.door > 0.5 && x.door < 0.5;
@@ -371,30 +563,65 @@ impl SensorCheck {
         }
     }
 
-    /// True while a condition independent of trips says a sensor is broken.
-    fn channel_fault(&self, cfg: &SensorLimits, time: f64) -> bool {
-        let speed_stuck = time - self.moving_since > cfg.max_trip_s;
-        self.missing || speed_stuck || self.stuck_cycles >= cfg.stuck_load_cycles || self.zero_drift
+    /// The channel a condition independent of trips says is broken, if any.
+    fn channel_fault(&self, cfg: &SensorLimits, time: f64) -> Option<Signal> {
+        if self.missing {
+            return Some(self.missing_channel.unwrap_or(Signal::Speed));
+        }
+        if time - self.moving_since > cfg.max_trip_s {
+            return Some(Signal::Speed);
+        }
+        if self.stuck_cycles >= cfg.stuck_load_cycles || self.zero_drift {
+            return Some(Signal::Load);
+        }
+        self.voltage_offset().then_some(Signal::Voltage)
+    }
+
+    /// The channel the `sensor` verdict at `time` is about: the one a channel check finds
+    /// broken, else the one behind the last implausible trip.
+    pub fn channel(&self, cfg: &SensorLimits, time: f64) -> Option<Signal> {
+        self.channel_fault(cfg, time).or(self.implausible_channel)
     }
 
     /// Judges a completed trip: true when it is plausible machine evidence.
     pub fn trip(&mut self, t: &Trip, cfg: &SensorLimits, floor_height: f64) -> bool {
-        // With the cell's zero off, every λ and so every expected force is off: not evidence.
-        let mut ok = !std::mem::take(&mut self.load_out_of_range) && !self.zero_drift;
-        ok &= t.end_time - t.start_time <= cfg.max_trip_s;
+        // With the cell's zero off, every λ and so every expected force is off; with the
+        // voltage's, every residual: not evidence.
+        let mut failed = None;
+        if std::mem::take(&mut self.load_out_of_range) {
+            failed = self.out_of_range_channel.take().or(Some(Signal::Load));
+        }
+        if self.zero_drift {
+            failed = failed.or(Some(Signal::Load));
+        }
+        if self.voltage_offset() {
+            failed = failed.or(Some(Signal::Voltage));
+        }
+        if t.end_time - t.start_time > cfg.max_trip_s {
+            failed = failed.or(Some(Signal::Speed));
+        }
         let floors_known = t.from_floor.is_finite() && t.to_floor.is_finite();
         if floors_known
             && t.peak_speed >= cfg.floor_change_speed_mps
             && t.distance_m >= 0.7 * floor_height
+            && t.from_floor == t.to_floor
         {
-            ok &= t.from_floor != t.to_floor;
+            failed = failed.or(Some(Signal::Floor));
         }
         if let Some((index, StateF64(to))) = self.last_trip {
-            if index.wrapping_add(1) == t.index && to.is_finite() && t.from_floor.is_finite() {
-                ok &= to == t.from_floor;
+            if index.wrapping_add(1) == t.index
+                && to.is_finite()
+                && t.from_floor.is_finite()
+                && to != t.from_floor
+            {
+                failed = failed.or(Some(Signal::Floor));
             }
         }
         self.last_trip = Some((t.index, StateF64(t.to_floor)));
+        let ok = failed.is_none();
+        if failed.is_some() {
+            self.implausible_channel = failed;
+        }
         self.observe(ok);
         ok
     }
@@ -404,7 +631,8 @@ impl SensorCheck {
     /// only when the implausible share falls below half that fraction, the same hysteresis as
     /// the machine levels.
     pub fn verdict(&self, cfg: &SensorLimits, time: f64, active: bool) -> bool {
-        let fault = self.channel_fault(cfg, time) || self.score >= cfg.implausible_fraction;
+        let fault =
+            self.channel_fault(cfg, time).is_some() || self.score >= cfg.implausible_fraction;
         let release = active && self.score >= 0.5 * cfg.implausible_fraction;
         fault || release
     }
@@ -473,6 +701,84 @@ mod tests {
         // A cell 2 % off (1.5 % rounds to 2 % half the time) is a sensor fault at once.
         assert_eq!(watch(2.0), (true, true));
         assert_eq!(watch(-2.0), (true, true));
+    }
+
+    /// `stops` stops of 1 Hz samples: 15 s at speed, then a standstill of 8-60 s. At rest the
+    /// drive reads `rest_v` (with 1 V of noise, quantised to 0.5 V) and, when it is off at
+    /// rest (`pre_torque`), 40 V of pre-torque for a second either side of the motion; from
+    /// stop `offset_from` on, the sensor reads 25 V high.
+    fn stops(n: usize, rest_v: f64, pre_torque: bool, offset_from: usize, seed: u64) -> Vec<Sample> {
+        let mut rng = crate::rng::Rng::new(seed);
+        let mut out = Vec::new();
+        let mut t = 0.0;
+        for k in 0..n {
+            let offset = if k >= offset_from { 25.0 } else { 0.0 };
+            let still = 8 + rng.below(53) as usize;
+            for i in 0..15 + still {
+                let moving = i < 15;
+                let held = pre_torque && (i == 15 || i + 1 == 15 + still);
+                let u = if moving {
+                    300.0
+                } else if held {
+                    40.0
+                } else {
+                    rest_v
+                };
+                let reading = (2.0 * (u + offset + rng.normal())).round() / 2.0;
+                out.push(Sample {
+                    time: t,
+                    speed: if moving { 1.5 } else { 0.0 },
+                    direction: 0.0,
+                    voltage: reading.max(0.0),
+                    load: 0.0,
+                    door: 0.0,
+                    floor: 1.0,
+                    current: f64::NAN,
+                });
+                t += 1.0;
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn a_shifted_rest_voltage_is_a_voltage_sensor_offset_within_a_few_stops() {
+        for (rest_v, pre_torque) in [(0.3, true), (11.0, false)] {
+            let mut limits = SensorLimits::default();
+            limits.calibrate_rest_voltage(&stops(300, rest_v, pre_torque, usize::MAX, 1), 0.05, 350.0);
+            let reference = limits.rest_voltage_v.expect("300 stops calibrate the check");
+            assert!((reference - rest_v).abs() < 0.5, "rest reading {reference} V");
+            // The allowance is the 1 % class of a 350 V drive: the healthy stops sit well inside.
+            assert!((limits.rest_voltage_allowance_v - 3.5).abs() < 1e-9);
+
+            // (stop at which it is first flagged, flagged at the end, channel at the end)
+            let watch = |offset_from: usize| {
+                let mut check = SensorCheck::new();
+                let mut first = None;
+                let mut stop = 0;
+                let mut was_moving = false;
+                let xs = stops(2000, rest_v, pre_torque, offset_from, 2);
+                for x in &xs {
+                    let moving = x.speed > 0.05;
+                    stop += usize::from(moving && !was_moving);
+                    was_moving = moving;
+                    check.sample(x, &limits, 0.05);
+                    if check.voltage_offset() && first.is_none() {
+                        first = Some(stop);
+                    }
+                }
+                let end = xs.last().unwrap().time;
+                (first, check.channel(&limits, end))
+            };
+            // 2000 healthy stops: never flagged.
+            assert_eq!(watch(usize::MAX), (None, None), "rest {rest_v} V");
+            // 25 V from stop 1000 on: flagged at the fifth stop the offset shows in (the stop
+            // counted here is the trip that ends the standstill), named the voltage channel.
+            let (first, channel) = watch(1000);
+            let first = first.expect("the offset is flagged");
+            assert!((1000..=1006).contains(&first), "flagged at stop {first}");
+            assert_eq!(channel, Some(Signal::Voltage));
+        }
     }
 
     #[test]

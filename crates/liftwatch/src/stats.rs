@@ -1,6 +1,8 @@
-//! Robust location and scale, shared by the fit and the evaluation.
+//! Robust location and scale, shared by the fit and the evaluation, and the one CUSUM
+//! increment.
 //!
 //! ```text
+//! llr(ν, u)       ν·u − ν²/2: a CUSUM's step for a shift ν of a unit-variance score u
 //! median(x)       middle value of the sorted x
 //! MAD(x)          median(|x_i − median(x)|)
 //! σ̂ = 1.4826·MAD  a standard deviation that a few outliers do not inflate
@@ -12,6 +14,14 @@
 //! one (the mean of the two middle values), [`upper_median`] takes the upper of the two by an
 //! O(n) selection. [`robust_sigma`] is built on [`upper_median`], as every fitted model so far
 //! was; switching it would move σ_U, σ_F and with them every fitted number in the last bits.
+
+/// The CUSUM's increment for a score `u` of unit variance and a change of size `nu` (in its
+/// standard deviations): the log-likelihood ratio ν·u − ν²/2 of a mean ν against 0. The one
+/// increment of every CUSUM of the crate (the risk stage's bank, the rest voltage of
+/// [`crate::sensor`], the doors of [`crate::operation`]): G ← max(0, G + gaussian_llr(ν, u)).
+pub fn gaussian_llr(nu: f64, u: f64) -> f64 {
+    nu * u - 0.5 * nu * nu
+}
 
 /// 1/Φ⁻¹(¾): the factor that turns a MAD into a standard deviation for Gaussian data.
 pub const MAD_TO_SIGMA: f64 = 1.4826;

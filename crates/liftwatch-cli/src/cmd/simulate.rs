@@ -10,6 +10,7 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use liftwatch::mode::FaultMode;
+use liftwatch::sim::scenario::VOLTAGE_OFFSET_V;
 use liftwatch::sim::{
     self, truth_name, DoorBehaviour, OutageKind, OutagePlan, Ramp, Scenario, SensorFault, SimConfig,
 };
@@ -171,6 +172,8 @@ pub enum SensorFaultArg {
     LoadDrift,
     /// The speed reading sticks for 1 h at the onset.
     StuckSpeed,
+    /// The voltage sensor reads 25 V high from the onset on.
+    VoltageOffset,
 }
 
 /// Runs `simulate`.
@@ -219,6 +222,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         SensorFaultArg::StuckSpeed => Some(SensorFault::StuckSpeed {
             onset_s: onset,
             duration_s: 3600.0,
+        }),
+        SensorFaultArg::VoltageOffset => Some(SensorFault::VoltageOffset {
+            onset_s: onset,
+            volts: VOLTAGE_OFFSET_V,
         }),
     };
     cfg.doors = match args.doors {

@@ -4,6 +4,7 @@
 //!
 //! ```text
 //! delay       = (t_detect − t_onset)/day                  first detection at or after the onset
+//! mode ok     = the true mode named at detection; for a sensor fault `sensor` and its channel
 //! false/year  = false signals/(exposure days/365.25)      before the onset, or the whole healthy run
 //! flicker     = threshold alarm activations, per trip, before it holds PERSISTENT_TRIPS trips
 //! drift z     = (reported − true drift of the true mode)/its reported SE, at detection
@@ -20,6 +21,7 @@ use super::trips::{TripGrouper, TripSummary};
 use super::{DAY_S, PERSISTENT_TRIPS, YEAR_DAYS};
 use crate::alarm::{Event, Level};
 use crate::error::Result;
+use crate::ingest::Signal;
 use crate::mode::FaultMode;
 use crate::monitor::{Monitor, MonitorRow};
 use crate::sim::{self, SimSink, TruthRow};
@@ -66,6 +68,8 @@ pub(super) struct Metrics<'a> {
     pub exposure_days: f64,
     /// What is really wrong; None when healthy.
     pub truth: Option<FaultMode>,
+    /// The broken channel of a sensor fault: a `sensor` event is right only when it names it.
+    pub channel: Option<Signal>,
     /// The monitored run.
     pub sink: &'a CaseSink,
     /// The degradation and the plant's true F_c (N), for the true drift at detection.
@@ -133,7 +137,10 @@ impl Metrics<'_> {
         let mut r = self.result("liftwatch", false_signals, detected);
         if self.truth.is_some() {
             r.mode = mode;
-            r.mode_correct = mode.map(|m| self.mode_correct(m));
+            r.mode_correct = mode.map(|m| {
+                self.mode_correct(m)
+                    && (m != FaultMode::Sensor || at.and_then(|e| e.channel) == self.channel)
+            });
             r.drift_z = at.and_then(|e| self.drift_z(e));
         }
         r.events = self.sink.events.clone();

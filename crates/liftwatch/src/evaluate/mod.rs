@@ -191,7 +191,7 @@ pub fn run_suite(cfg: &SuiteConfig, progress: &(dyn Fn(&str) + Sync)) -> Result<
     let n = cases.len();
     let results = par_map(n, cfg.threads, &|i| {
         let c = &cases[i];
-        let r = run_case(c, &refs[c.elevator], cfg, i);
+        let r = run_case(c, &refs[c.elevator], cfg);
         let k = done.fetch_add(1, Ordering::Relaxed) + 1;
         progress(&format!(
             "case {k}/{n} {}: {:.1} s, elapsed {:.0} s",

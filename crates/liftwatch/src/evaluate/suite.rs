@@ -3,7 +3,8 @@
 //!
 //! ```text
 //! per elevator: plant (seed tag 1) → healthy training run (tag 2) → fit → chart limits (tag 3)
-//! per case:     same plant, seed tag 100 + case index → monitored run, onset at 40 % of the span
+//! per case:     same plant, seed tag 100 + hash of the case's name → monitored run, onset at
+//!               40 % of the span (a case added or removed leaves every other case's run as it was)
 //!               → Monitor(Pinn), Monitor(Threshold), trips → metrics
 //! ```
 
@@ -24,6 +25,7 @@ use crate::model::TrainConfig;
 use crate::monitor::{Method, Monitor};
 use crate::rng::Rng;
 use crate::sim::scenario::healthy_or_mode;
+use crate::sim::scenario::VOLTAGE_OFFSET_V;
 use crate::sim::{self, Ramp, Scenario, SensorFault, SimConfig, SimElevator};
 
 /// Hour of the day at which a training shorter than a day starts: 07:00, the morning peak
@@ -181,6 +183,13 @@ pub fn cases(cfg: &SuiteConfig, fleet: &[FleetElevator]) -> Result<Vec<Case>> {
                     pct_per_day: 2.0,
                 },
             ));
+            sensors.push((
+                "voltage-offset",
+                SensorFault::VoltageOffset {
+                    onset_s: onset,
+                    volts: VOLTAGE_OFFSET_V,
+                },
+            ));
         }
         for (name, f) in sensors {
             out.push(Case {
@@ -209,6 +218,15 @@ fn ramp_name(r: Ramp) -> &'static str {
 fn derive_seed(base: u64, e: usize, tag: u64) -> u64 {
     let mut r = Rng::new(base ^ ((e as u64 + 1) << 40) ^ tag.wrapping_mul(0x9E37_79B9_7F4A_7C15));
     r.next_u64()
+}
+
+/// A case's seed tag from its name (FNV-1a, 64 bits): stable when cases are added, removed or
+/// reordered, as an index into the list is not.
+fn name_tag(name: &str) -> u64 {
+    const FNV_OFFSET: u64 = 0xCBF2_9CE4_8422_2325;
+    const FNV_PRIME: u64 = 0x0100_0000_01B3;
+    name.bytes()
+        .fold(FNV_OFFSET, |h, b| (h ^ u64::from(b)).wrapping_mul(FNV_PRIME))
 }
 
 /// The trained reference of one elevator: hidden plant, model and chart limits.
@@ -291,17 +309,12 @@ pub struct CaseResult {
 ///
 /// # Errors
 /// Whatever the simulation fails with.
-pub fn run_case(
-    case: &Case,
-    trained: &Trained,
-    cfg: &SuiteConfig,
-    index: usize,
-) -> Result<CaseResult> {
+pub fn run_case(case: &Case, trained: &Trained, cfg: &SuiteConfig) -> Result<CaseResult> {
     let clock = Instant::now();
     let mut sc = SimConfig::new(
         trained.model.hybrid.elevator.clone(),
         case.days,
-        derive_seed(cfg.seed, case.elevator, 100 + index as u64),
+        derive_seed(cfg.seed, case.elevator, 100 + name_tag(&case.name)),
     );
     sc.plant = Some(trained.plant.clone());
     sc.scenario = case.scenario.clone();
@@ -329,6 +342,7 @@ pub fn run_case(
         onset,
         exposure_days,
         truth: case.truth,
+        channel: case.sensor_fault.as_ref().map(SensorFault::channel),
         sink: &sink,
         scenario: &case.scenario,
         f_c: trained.plant.f_c,

@@ -43,8 +43,12 @@ pub enum Layout {
     Aligned,
 }
 
-/// A telemetry signal of DATA.md §1.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+/// A telemetry signal of DATA.md §1 (serialised by its name in files, e.g. in an event's
+/// `channel`).
+#[derive(
+    Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize, serde::Deserialize,
+)]
+#[serde(rename_all = "lowercase")]
 pub enum Signal {
     /// Car speed magnitude (m/s).
     Speed,

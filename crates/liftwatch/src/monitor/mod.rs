@@ -623,11 +623,15 @@ impl Monitor {
         if update_episode(&mut st.episode_mode, before, &st.alarm, &a, cfg) {
             let evidence =
                 Evidence::from_assessment(&a, self.friction.0, st.risk.trips, st.implausible_trips);
+            let channel = (st.episode_mode == FaultMode::Sensor)
+                .then(|| st.sensor.channel(&self.model.sensor, x.time))
+                .flatten();
             event = Some(Event {
                 time: x.time,
                 level,
                 mode: st.episode_mode,
                 risk: a.risk,
+                channel,
                 evidence,
             });
             st.events = st.events.saturating_add(1);
@@ -692,6 +696,7 @@ mod tests {
     use crate::elevator::Elevator;
     use crate::residual::tests::{test_features, test_model as test_hybrid};
     use crate::sim::{simulate, SensorFault, SimConfig};
+    use crate::ingest::Signal;
 
     /// The unit-test hybrid model with uncalibrated later stages.
     fn test_model() -> FittedModel {
@@ -831,12 +836,57 @@ mod tests {
             .first()
             .expect("the stuck speed must raise the sensor advisory");
         assert_eq!(
-            (first.level, first.mode),
-            (Level::Advisory, FaultMode::Sensor)
+            (first.level, first.mode, first.channel),
+            (Level::Advisory, FaultMode::Sensor, Some(Signal::Speed))
         );
         assert!(first.time >= onset, "{events:?}");
         // And healthy data of the same seed raise nothing from the sensor checks.
         let healthy = run_all(&model, Method::Pinn, &samples(0.3, 5, None));
+        assert!(healthy.iter().all(|r| r.level == Level::Normal));
+    }
+
+    #[test]
+    fn a_voltage_offset_is_reported_as_the_voltage_sensor_within_a_few_stops() {
+        let mut model = test_model();
+        model.risk.advisory = 1e30;
+        model.risk.alarm = 1e31;
+        let thr = model.features.moving_threshold_mps;
+        let p = &model.hybrid.parameters;
+        let rated_v = p.u0 + p.ke * model.hybrid.elevator.rated_speed_mps;
+        let mut sensor = model.sensor.clone();
+        sensor.calibrate_rest_voltage(&samples(0.5, 8, None), thr, rated_v);
+        model.sensor = sensor;
+        assert!(model.sensor.rest_voltage_v.is_some(), "half a day of stops calibrates it");
+
+        let onset = 0.3 * 86_400.0;
+        let fault = SensorFault::VoltageOffset {
+            onset_s: onset,
+            volts: 25.0,
+        };
+        let xs = samples(0.5, 9, Some(fault));
+        let events: Vec<Event> = run_all(&model, Method::Pinn, &xs)
+            .iter()
+            .filter_map(|r| r.event)
+            .collect();
+        let first = events.first().expect("the offset must raise the sensor advisory");
+        assert_eq!(
+            (first.level, first.mode, first.channel),
+            (Level::Advisory, FaultMode::Sensor, Some(Signal::Voltage))
+        );
+        // Five stops past the onset by the CUSUM's arithmetic (2.5 of h = 12 a stop), so
+        // within the six that follow it (the stops of a busy hour last about a minute).
+        let stops_between = |a: f64, b: f64| {
+            xs.windows(2)
+                .filter(|w| w[1].time > a && w[1].time <= b && w[0].speed > thr && w[1].speed <= thr)
+                .count()
+        };
+        assert!(first.time >= onset, "{events:?}");
+        assert!(
+            stops_between(onset, first.time) <= 6,
+            "flagged after {} stops",
+            stops_between(onset, first.time)
+        );
+        let healthy = run_all(&model, Method::Pinn, &samples(0.5, 9, None));
         assert!(healthy.iter().all(|r| r.level == Level::Normal));
     }
 

@@ -66,13 +66,7 @@ pub const N_SIZES: usize = 2;
 /// real degradation gives. A change of up to 3 standard errors per trip passes unclipped.
 pub const CLIP: f64 = 3.0;
 
-/// The CUSUM's increment for a score `u` of unit variance and a change of size `nu` (in its
-/// standard deviations): the log-likelihood ratio ν·u − ν²/2 of a mean ν against 0. The one
-/// increment of every CUSUM of the crate (this bank, the doors of [`crate::operation`]):
-/// G ← max(0, G + gaussian_llr(ν, u)).
-pub fn gaussian_llr(nu: f64, u: f64) -> f64 {
-    nu * u - 0.5 * nu * nu
-}
+pub use crate::stats::gaussian_llr;
 
 /// A mode is named when its signature alone explains the window this many times more likely
 /// than the runner-up's: 20 to 1, a conventional "strong" likelihood ratio.

@@ -559,9 +559,15 @@ impl<'a, S: SimSink> Engine<'a, S> {
                 let fx = self.cfg.scenario.effects_at(ts, self.p.f_c);
                 let f = self.p.force(x, v, a, self.load_kg, &fx);
                 let kd = self.kd_at(ts, &fx);
+                let offset = self
+                    .cfg
+                    .sensor_fault
+                    .as_ref()
+                    .map_or(0.0, |f| f.voltage_offset_v(t));
                 let u = self
                     .p
-                    .drive_voltage((x, v), f, self.load_kg, self.energised, kd);
+                    .drive_voltage((x, v), f, self.load_kg, self.energised, kd)
+                    + offset;
                 quant(
                     (u + sp.voltage_noise_v * rng.normal()).max(0.0),
                     sp.voltage_quant_v,

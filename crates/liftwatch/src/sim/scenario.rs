@@ -29,6 +29,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
+use crate::ingest::Signal;
 use crate::mode::FaultMode;
 
 /// The name of a run's truth: `healthy` for none, else the mode's (`motor`, `brake`, …);
@@ -315,7 +316,20 @@ pub enum SensorFault {
         /// How long it stays stuck (s).
         duration_s: f64,
     },
+    /// The voltage sensor reads `volts` high from `onset_s` on, moving or not (a shifted
+    /// transducer zero, a ground loop).
+    VoltageOffset {
+        /// Onset (s).
+        onset_s: f64,
+        /// The offset (V).
+        volts: f64,
+    },
 }
+
+/// The voltage-sensor offset of the evaluation and of `simulate --sensor-fault
+/// voltage-offset` (V): 25 V, the size the independent test bench used, 5-10 % of a traction
+/// drive's voltage at rated speed.
+pub const VOLTAGE_OFFSET_V: f64 = 25.0;
 
 impl SensorFault {
     /// Load-cell offset (% of rated) at time `t`: zero unless a drifting load cell.
@@ -325,6 +339,23 @@ impl SensorFault {
                 onset_s,
                 pct_per_day,
             } if t > onset_s => pct_per_day * (t - onset_s) / 86_400.0,
+            _ => 0.0,
+        }
+    }
+
+    /// The channel the fault breaks.
+    pub fn channel(&self) -> Signal {
+        match self {
+            SensorFault::LoadDrift { .. } => Signal::Load,
+            SensorFault::StuckSpeed { .. } => Signal::Speed,
+            SensorFault::VoltageOffset { .. } => Signal::Voltage,
+        }
+    }
+
+    /// Voltage-sensor offset (V) at time `t`: zero unless an offset voltage sensor.
+    pub fn voltage_offset_v(&self, t: f64) -> f64 {
+        match *self {
+            SensorFault::VoltageOffset { onset_s, volts } if t >= onset_s => volts,
             _ => 0.0,
         }
     }

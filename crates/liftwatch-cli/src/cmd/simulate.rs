@@ -272,7 +272,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         args.seed,
         s.trips,
         s.raw_rows,
-        s.truth_rows,
+        s.aligned_rows,
         sim::OUTPUT_FILES.join(", "),
         args.out.display()
     ));
@@ -285,6 +285,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         "seed": args.seed,
         "trips": s.trips,
         "raw_rows": s.raw_rows,
-        "aligned_rows": s.truth_rows,
+        "aligned_rows": s.aligned_rows,
     }))
 }

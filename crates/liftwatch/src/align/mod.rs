@@ -64,7 +64,9 @@ use passes::{pass_through, sorted_pass, stream_pass, Outcome, Plan};
 
 pub use aligner::{Aligner, AlignerCounts};
 pub use engine::Push;
+pub(crate) use passes::RowStream;
 pub use sink::{sink_fn, AlignedFileSink, FnSink, SampleSink};
+pub(crate) use writer::push_sample;
 pub use writer::{write_aligned, write_aligned_file, AlignedWriter};
 
 /// Longest accepted span of usable times (s): 10 years.

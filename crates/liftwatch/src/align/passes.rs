@@ -82,6 +82,65 @@ pub(super) fn stream_pass<R: Read, S: SampleSink>(
     Ok(outcome)
 }
 
+/// The streaming pass fed row by row by the writer of the file instead of read from it: the
+/// simulator aligns the raw rows it logs, as they are written, into the aligned series it writes
+/// beside them. Same engine, same rules (duplicates averaged or last, gaps left empty) as
+/// [`stream_pass`] reading that file back, so the samples are those `align` makes of it.
+pub(crate) struct RowStream {
+    engine: Engine,
+    path: std::path::PathBuf,
+}
+
+impl RowStream {
+    /// An empty stream of the file `path` (named in messages).
+    ///
+    /// # Errors
+    /// [`crate::Error::InvalidConfig`] for a bad `cfg`.
+    pub(crate) fn new(cfg: &AlignConfig, path: &std::path::Path) -> Result<Self> {
+        cfg.validate()?;
+        Ok(RowStream {
+            engine: Engine::new(cfg, false),
+            path: path.to_path_buf(),
+        })
+    }
+
+    /// One reading, as a reader of the file gets it, in file order; grid points it makes
+    /// certain go to `sink`.
+    ///
+    /// # Errors
+    /// The sink's error; [`crate::Error::BadDocument`] for a span beyond the limit or a row
+    /// later than the reorder window (which a file would have sorted in a second pass: a
+    /// writer feeding this stream must keep its rows within the window).
+    pub(crate) fn push<S: SampleSink>(
+        &mut self,
+        sig: Signal,
+        t: f64,
+        v: f64,
+        sink: &mut S,
+    ) -> Result<(), S::Error> {
+        match self.engine.push(sig, t, v, &self.path, sink)? {
+            Push::Late | Push::LateCurrent => Err(crate::Error::BadDocument {
+                path: self.path.clone(),
+                what: "telemetry log",
+                why: format!(
+                    "a {} row at {t} s comes later than the reorder window allows",
+                    sig.name()
+                ),
+            }
+            .into()),
+            Push::Taken | Push::Duplicate | Push::OutOfSpan => Ok(()),
+        }
+    }
+
+    /// The rest of the grid: the end of the file.
+    ///
+    /// # Errors
+    /// The sink's error.
+    pub(crate) fn flush<S: SampleSink>(&mut self, sink: &mut S) -> Result<(), S::Error> {
+        self.engine.flush(sink)
+    }
+}
+
 /// One pass that keeps every reading in memory, sorts each signal (stable) and aligns.
 pub(super) fn sorted_pass<R: Read, S: SampleSink>(
     rows: &mut RowReader<R>,

@@ -29,6 +29,19 @@ fn push_number(line: &mut String, v: f64) {
     let _ = write!(line, "{r}");
 }
 
+/// Appends the DATA.md §2 fields of `s`, `time,speed,direction,voltage,load,door,floor`, as
+/// every aligned file is written: the time as the grid gives it (no rounding, `-0` as `0`),
+/// the values through [`push_number`].
+pub(crate) fn push_sample(line: &mut String, s: &Sample) {
+    use std::fmt::Write as _;
+    let t = if s.time == 0.0 { 0.0 } else { s.time };
+    let _ = write!(line, "{t}");
+    for v in [s.speed, s.direction, s.voltage, s.load, s.door, s.floor] {
+        line.push(',');
+        push_number(line, v);
+    }
+}
+
 /// Writes aligned samples as CSV (DATA.md §2): the header, then one row per sample,
 /// empty fields for missing values.
 pub struct AlignedWriter<W: Write> {
@@ -58,15 +71,8 @@ impl<W: Write> AlignedWriter<W> {
     /// # Errors
     /// The writer's error.
     pub fn write(&mut self, s: &Sample) -> io::Result<()> {
-        use std::fmt::Write as _;
         self.line.clear();
-        // Times are written as the grid gives them (no rounding), `-0` as `0`.
-        let t = if s.time == 0.0 { 0.0 } else { s.time };
-        let _ = write!(self.line, "{t}");
-        for v in [s.speed, s.direction, s.voltage, s.load, s.door, s.floor] {
-            self.line.push(',');
-            push_number(&mut self.line, v);
-        }
+        push_sample(&mut self.line, s);
         if self.with_current {
             self.line.push(',');
             push_number(&mut self.line, s.current);

@@ -604,7 +604,7 @@ impl<'a, S: SimSink> Engine<'a, S> {
         }
     }
 
-    /// One aligned second: sensor models at the grid instant (silent sensors missing) and truth.
+    /// One grid second: sensor models at the grid instant (silent sensors missing) and truth.
     fn emit_grid(&mut self, t: f64, m: Motion) -> Result<()> {
         let mut rng = std::mem::replace(&mut self.noise_grid, Rng::new(0));
         let mut vals = [f64::NAN; 6];

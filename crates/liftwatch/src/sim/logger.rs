@@ -1,5 +1,5 @@
 //! Simulator: sensor clocks, dropouts and the control-cabinet logger that writes raw telemetry
-//! (DATA.md §1) and the simulator's own aligned series (DATA.md §2).
+//! (DATA.md §1), and the aligned series of that telemetry (DATA.md §2) with the truth beside it.
 //!
 //! ```text
 //! sample k of a signal:  t_k = t_0 + φ + k·P·(1 + ppm·1e-6) + clamp(N(0, σ_j), ±0.2 s)
@@ -17,8 +17,10 @@ use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
+use crate::align::{push_sample, AlignConfig, RowStream, SampleSink};
 use crate::error::{Error, Result};
 use crate::rng::Rng;
+use crate::sample::Sample;
 use crate::text::push_fixed;
 
 use super::TruthRow;
@@ -286,13 +288,107 @@ pub const ALIGNED_HEADER: [&str; 15] = [
     "severity",
 ];
 
-/// Writes `aligned.csv`: the DATA.md §2 columns, empty where missing, then the truth columns.
+/// Writes `aligned.csv` (DATA.md §2): what the one aligner of [`crate::align`] makes of the
+/// raw rows as [`RawCsvWriter`] writes them, i.e. what `liftwatch align` writes for `raw.csv`
+/// (same samples, same text), each row followed by the truth at its grid instant.
+///
+/// The raw rows go in as a reader of `raw.csv` gets them back (their written text parsed), in
+/// logging order, through the streaming pass of a file; the truth rows in time order. A grid
+/// point of the log with no truth row gets empty truth fields; a truth second outside the log's
+/// grid (before its first reading, after its last) has no row. Memory stays bounded by the
+/// aligner's reorder window.
 pub struct AlignedCsvWriter {
+    stream: RowStream,
+    join: Join,
+    text: Vec<u8>,
+}
+
+/// The receiving end of the aligner: samples joined with the truth rows and written.
+struct Join {
     path: PathBuf,
-    out: csv::Writer<BufWriter<File>>,
-    buf: Vec<u8>,
-    /// Rows written so far.
-    pub rows: u64,
+    out: BufWriter<File>,
+    line: String,
+    bytes: Vec<u8>,
+    samples: VecDeque<Sample>,
+    truth: VecDeque<TruthRow>,
+    rows: u64,
+}
+
+impl Join {
+    /// Writes every row whose match is decided; at the `end`, everything left.
+    fn drain(&mut self, end: bool) -> Result<()> {
+        loop {
+            match (self.samples.front(), self.truth.front()) {
+                (Some(s), Some(t)) if s.time == t.sample.time => {
+                    let (s, t) = (*s, *t);
+                    self.write(&s, Some(&t))?;
+                    self.samples.pop_front();
+                    self.truth.pop_front();
+                }
+                // Both come in time order: a sample before the next truth row has none, a truth
+                // row before the next sample is no grid point of the log.
+                (Some(s), Some(t)) if s.time < t.sample.time => {
+                    let s = *s;
+                    self.write(&s, None)?;
+                    self.samples.pop_front();
+                }
+                (Some(_), Some(_)) => {
+                    self.truth.pop_front();
+                }
+                (Some(s), None) if end => {
+                    let s = *s;
+                    self.write(&s, None)?;
+                    self.samples.pop_front();
+                }
+                (None, Some(_)) if end => {
+                    self.truth.pop_front();
+                }
+                _ => return Ok(()),
+            }
+        }
+    }
+
+    fn write(&mut self, s: &Sample, t: Option<&TruthRow>) -> Result<()> {
+        self.line.clear();
+        push_sample(&mut self.line, s);
+        let truth = t.map_or([f64::NAN; 8], |r| {
+            [
+                r.v_true,
+                r.accel_true,
+                r.pos_true,
+                r.load_true,
+                r.force_true,
+                r.voltage_true,
+                r.kd_true,
+                r.severity,
+            ]
+        });
+        self.bytes.clear();
+        self.bytes.extend_from_slice(self.line.as_bytes());
+        for (v, dec) in truth.into_iter().zip([4, 4, 3, 4, 1, 3, 7, 4]) {
+            self.bytes.push(b',');
+            push_fixed(&mut self.bytes, v, dec);
+        }
+        self.bytes.push(b'\n');
+        self.out
+            .write_all(&self.bytes)
+            .map_err(|e| Error::io(&self.path, e))?;
+        self.rows += 1;
+        Ok(())
+    }
+}
+
+impl SampleSink for Join {
+    type Error = Error;
+
+    fn start(&mut self, _has_current: bool) -> Result<()> {
+        Ok(())
+    }
+
+    fn push(&mut self, sample: &Sample) -> Result<()> {
+        self.samples.push_back(*sample);
+        self.drain(false)
+    }
 }
 
 impl AlignedCsvWriter {
@@ -302,66 +398,67 @@ impl AlignedCsvWriter {
     /// [`Error::Io`] when the file cannot be created or written.
     pub fn create(path: &Path) -> Result<Self> {
         let file = File::create(path).map_err(|e| Error::io(path, e))?;
-        let mut out = csv::Writer::from_writer(BufWriter::with_capacity(1 << 20, file));
-        out.write_record(ALIGNED_HEADER)
-            .map_err(|e| csv_error(path, e))?;
+        let mut out = BufWriter::with_capacity(1 << 20, file);
+        out.write_all(ALIGNED_HEADER.join(",").as_bytes())
+            .and_then(|()| out.write_all(b"\n"))
+            .map_err(|e| Error::io(path, e))?;
         Ok(AlignedCsvWriter {
-            path: path.into(),
-            out,
-            buf: Vec::with_capacity(32),
-            rows: 0,
+            stream: RowStream::new(&AlignConfig::default(), Path::new("raw.csv"))?,
+            join: Join {
+                path: path.into(),
+                out,
+                line: String::with_capacity(96),
+                bytes: Vec::with_capacity(192),
+                samples: VecDeque::new(),
+                truth: VecDeque::new(),
+                rows: 0,
+            },
+            text: Vec::with_capacity(32),
         })
     }
 
-    /// Writes one row.
+    /// Takes one raw row as it is written to `raw.csv`, in logging order.
     ///
     /// # Errors
     /// [`Error::Io`] when writing fails.
-    pub fn write(&mut self, r: &TruthRow) -> Result<()> {
-        let s = &r.sample;
-        let fields: [(f64, usize); 15] = [
-            (s.time, 1),
-            (s.speed, 3),
-            (s.direction, 0),
-            (s.voltage, 2),
-            (s.load, 1),
-            (s.door, 0),
-            (s.floor, 0),
-            (r.v_true, 4),
-            (r.accel_true, 4),
-            (r.pos_true, 3),
-            (r.load_true, 4),
-            (r.force_true, 1),
-            (r.voltage_true, 3),
-            (r.kd_true, 7),
-            (r.severity, 4),
-        ];
-        for (v, dec) in fields {
-            self.buf.clear();
-            push_fixed(&mut self.buf, v, dec);
-            self.out
-                .write_field(&self.buf)
-                .map_err(|e| csv_error(&self.path, e))?;
-        }
-        self.out
-            .write_record(None::<&[u8]>)
-            .map_err(|e| csv_error(&self.path, e))?;
-        self.rows += 1;
-        Ok(())
+    pub fn raw(&mut self, r: &RawRow) -> Result<()> {
+        // The reading as a reader of raw.csv gets it: the written text, parsed as ingest does.
+        let mut read = |v: f64, dec: usize| {
+            self.text.clear();
+            push_fixed(&mut self.text, v, dec);
+            crate::text::parse_f64(&self.text).filter(|x| x.is_finite())
+        };
+        let (Some(t), Some(v)) = (read(r.time, 3), read(r.value, decimals(r.signal))) else {
+            return Ok(());
+        };
+        self.stream.push(r.signal, t, v, &mut self.join)
     }
 
-    /// Flushes the file.
+    /// Takes the truth of one grid second, in time order.
     ///
     /// # Errors
-    /// [`Error::Io`] when flushing fails.
-    pub fn finish(mut self) -> Result<u64> {
-        self.out.flush().map_err(|e| Error::io(&self.path, e))?;
-        Ok(self.rows)
+    /// [`Error::Io`] when writing fails.
+    pub fn truth(&mut self, r: &TruthRow) -> Result<()> {
+        self.join.truth.push_back(*r);
+        self.join.drain(false)
     }
-}
 
-fn csv_error(path: &Path, e: csv::Error) -> Error {
-    Error::io(path, std::io::Error::other(e.to_string()))
+    /// Aligns the rest of the log, writes it and flushes the file; returns the rows written.
+    ///
+    /// # Errors
+    /// [`Error::Io`] when writing fails.
+    pub fn finish(mut self) -> Result<u64> {
+        self.stream.flush(&mut self.join)?;
+        self.join.drain(true)?;
+        let Join {
+            mut out,
+            path,
+            rows,
+            ..
+        } = self.join;
+        out.flush().map_err(|e| Error::io(&path, e))?;
+        Ok(rows)
+    }
 }
 
 #[cfg(test)]

@@ -1,5 +1,12 @@
 //! Simulator: a seeded traction elevator that writes the telemetry its controller would log
-//! (raw, DATA.md §1), its own aligned series (DATA.md §2) and the hidden truth.
+//! (raw, DATA.md §1), the aligned series of that log (DATA.md §2, by the one aligner of
+//! [`crate::align`]) and the hidden truth.
+//!
+//! Beside the log, each grid second also reads every sensor at the grid instant
+//! ([`TruthRow::sample`], [`SimOutput::aligned`]): an idealised series that no aligner can
+//! make of a log whose clocks are phase-shifted, kept in memory for tests of the stages behind
+//! alignment. `aligned.csv` is not that series: it is what `liftwatch align` makes of
+//! `raw.csv`, so that every command gives the same result on either file.
 //!
 //! ```text
 //! traffic (calls by time of day) → dispatcher (single car, collective in one direction)
@@ -205,7 +212,7 @@ impl SimConfig {
     }
 }
 
-/// One second of the simulator's own aligned series and its truth.
+/// One grid second: every sensor read at the grid instant, and the truth.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TruthRow {
     /// Sensor readings at the grid instant (NaN while the sensor is silent); `current` is NaN.
@@ -235,7 +242,7 @@ pub trait SimSink {
     /// # Errors
     /// Whatever the sink fails with; the run stops.
     fn raw(&mut self, row: RawRow) -> Result<()>;
-    /// One aligned second, in time order.
+    /// One grid second, in time order.
     ///
     /// # Errors
     /// Whatever the sink fails with; the run stops.
@@ -255,8 +262,11 @@ pub struct SimSummary {
     pub dropped_calls: u64,
     /// Raw rows produced.
     pub raw_rows: u64,
-    /// Aligned seconds produced.
+    /// Grid seconds produced (sensors read at the grid instant, with the truth).
     pub truth_rows: u64,
+    /// Rows of `aligned.csv` ([`write_dir`]): the grid points of the raw log, a second or two
+    /// fewer than `truth_rows` (0 for a run kept in memory).
+    pub aligned_rows: u64,
     /// Time in motion (s).
     pub moving_s: f64,
     /// Mean true load ratio over time in motion (1).
@@ -303,14 +313,15 @@ pub struct SimTruth {
 pub struct SimOutput {
     /// The raw rows in logging order.
     pub raw: Vec<RawRow>,
-    /// The aligned seconds with their truth.
+    /// The grid seconds with their truth.
     pub rows: Vec<TruthRow>,
     /// The truth document.
     pub truth: SimTruth,
 }
 
 impl SimOutput {
-    /// The simulator's own aligned series (DATA.md §2 signals only).
+    /// The sensors read at the grid instant (DATA.md §2 signals only): an idealised series,
+    /// not what aligning [`SimOutput::raw`] gives (that is what `aligned.csv` holds).
     pub fn aligned(&self) -> AlignedSeries {
         AlignedSeries {
             step_s: 1.0,
@@ -407,19 +418,20 @@ pub fn write_dir(cfg: &SimConfig, dir: &Path, progress: &mut dyn FnMut(f64)) -> 
     }
     impl SimSink for Files {
         fn raw(&mut self, row: RawRow) -> Result<()> {
-            self.raw.write(&row)
+            self.raw.write(&row)?;
+            self.aligned.raw(&row)
         }
         fn truth(&mut self, row: &TruthRow) -> Result<()> {
-            self.aligned.write(row)
+            self.aligned.truth(row)
         }
     }
     let mut files = Files {
         raw: RawCsvWriter::create(&tmp.join("raw.csv"))?,
         aligned: AlignedCsvWriter::create(&tmp.join("aligned.csv"))?,
     };
-    let truth = run(cfg, &mut files, progress)?;
+    let mut truth = run(cfg, &mut files, progress)?;
     files.raw.finish()?;
-    files.aligned.finish()?;
+    truth.summary.aligned_rows = files.aligned.finish()?;
     let toml_path = tmp.join("elevator.toml");
     std::fs::write(&toml_path, truth.plant.to_elevator().to_toml_string())
         .map_err(|e| Error::io(&toml_path, e))?;

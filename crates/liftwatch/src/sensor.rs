@@ -328,17 +328,11 @@ impl SensorLimits {
             self.load_zero_pct = None;
             return;
         }
-        let reference = crate::stats::median(&readings);
-        let widest = readings
-            .iter()
-            .map(|z| (z - reference).abs())
-            .fold(0.0, f64::max);
+        let (reference, limit) = healthy_range(&readings, ZERO_LIMIT_FLOOR_PCT);
         self.load_zero_pct = Some(reference);
-        self.load_zero_limit_pct = (ZERO_LIMIT_MARGIN * widest).max(ZERO_LIMIT_FLOOR_PCT);
+        self.load_zero_limit_pct = limit;
     }
-}
 
-impl SensorLimits {
     /// Calibrates the rest-voltage check on healthy samples (`thr` the motion threshold,
     /// `rated_voltage_v` the drive's voltage at rated speed): the median of the stops' rest
     /// readings; the allowance [`ZERO_LIMIT_MARGIN`] times their largest deviation from it,
@@ -353,17 +347,23 @@ impl SensorLimits {
             self.rest_voltage_v = None;
             return;
         }
-        let reference = crate::stats::median(&readings);
-        let widest = readings
-            .iter()
-            .map(|y| (y - reference).abs())
-            .fold(0.0, f64::max);
-        let allowance = (ZERO_LIMIT_MARGIN * widest).max(floor);
+        let (reference, allowance) = healthy_range(&readings, floor);
         let spread = crate::stats::robust_sigma(readings.iter().copied());
         self.rest_voltage_v = Some(reference);
         self.rest_voltage_allowance_v = allowance;
         self.rest_voltage_sd_v = spread.max(REST_SD_FLOOR_FRAC * allowance);
     }
+}
+
+/// The healthy reference of a witness's `readings` (their median) and how far from it a
+/// reading may lie: [`ZERO_LIMIT_MARGIN`] times their largest deviation, at least `floor`.
+fn healthy_range(readings: &[f64], floor: f64) -> (f64, f64) {
+    let reference = crate::stats::median(readings);
+    let widest = readings
+        .iter()
+        .map(|y| (y - reference).abs())
+        .fold(0.0, f64::max);
+    (reference, (ZERO_LIMIT_MARGIN * widest).max(floor))
 }
 
 /// Sensor plausibility from raw samples and completed trips.
@@ -578,9 +578,15 @@ impl SensorCheck {
     }
 
     /// The channel the `sensor` verdict at `time` is about: the one a channel check finds
-    /// broken, else the one behind the last implausible trip.
+    /// broken, else, while implausible trips hold the verdict (the release level of
+    /// [`SensorCheck::verdict`]), the one behind the last of them; None when no sensor check
+    /// holds it.
     pub fn channel(&self, cfg: &SensorLimits, time: f64) -> Option<Signal> {
-        self.channel_fault(cfg, time).or(self.implausible_channel)
+        self.channel_fault(cfg, time).or(
+            (self.score >= 0.5 * cfg.implausible_fraction)
+                .then_some(self.implausible_channel)
+                .flatten(),
+        )
     }
 
     /// Judges a completed trip: true when it is plausible machine evidence.

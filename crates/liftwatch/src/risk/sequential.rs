@@ -108,12 +108,6 @@ pub struct SequentialConfig {
     /// kept, which then never name the load cell.
     #[serde(default)]
     pub load_s2: f64,
-    /// Healthy wander of the load-cell coefficient between blocks of [`WANDER_BLOCK_TRIPS`]
-    /// trips, as `wander` (λ per unit, of rated load): the passengers' loads are read at door
-    /// close with the cell's noise and steps, and a day's traffic leaves a level along x_load
-    /// that no number of trips averages away.
-    #[serde(default)]
-    pub load_wander: f64,
 }
 
 /// Standard errors of the reference θ0 a trip's score must exceed before a CUSUM counts it:
@@ -166,7 +160,6 @@ impl SequentialConfig {
             )?;
         }
         check("risk.sequential.load_s2", self.load_s2, 0.0, 1e30)?;
-        check("risk.sequential.load_wander", self.load_wander, 0.0, 1e3)?;
         Ok(())
     }
 
@@ -197,7 +190,6 @@ impl SequentialConfig {
             wander: [0.0; N_MODES],
             reference_se: [0.0; N_MODES],
             load_s2: 0.0,
-            load_wander: 0.0,
         };
         let (mut ss, mut si) = ([0.0; N_MODES], [0.0; N_MODES]);
         let (mut ls, mut li) = (0.0, 0.0);
@@ -223,7 +215,6 @@ impl SequentialConfig {
             cfg.info[m] = si[m] / n;
         }
         cfg.wander = cfg.block_wander(trips);
-        cfg.load_wander = wander_of(trips, cfg.load_s2, |t| (cfg.load_score(t), t.load.ll));
         cfg.reference_se = cfg.day_spread(trips);
         Some(cfg)
     }
@@ -280,12 +271,29 @@ impl SequentialConfig {
     /// trips, less their own noise: √max(0, mean (y_b − ȳ)² − mean s²/I_b), with
     /// y_b = Σ score/Σ info of block b and I_b its information.
     fn block_wander(&self, trips: &[TripEvidence]) -> [f64; N_MODES] {
-        std::array::from_fn(|m| {
-            wander_of(trips, self.s2[m], |t| {
-                let (score, info) = self.score(t);
-                (score[m], info[m])
-            })
-        })
+        let mut out = [0.0; N_MODES];
+        for m in 0..N_MODES {
+            let blocks: Vec<(f64, f64)> = trips
+                .chunks_exact(WANDER_BLOCK_TRIPS)
+                .map(|b| {
+                    let (s, i) = b.iter().fold((0.0, 0.0), |(s, i), t| {
+                        let (score, info) = self.score(t);
+                        (s + score[m], i + info[m])
+                    });
+                    (s / i, self.s2[m] / i)
+                })
+                .filter(|(y, v)| y.is_finite() && v.is_finite())
+                .collect();
+            if blocks.len() < 2 {
+                continue;
+            }
+            let n = blocks.len() as f64;
+            let mean = blocks.iter().map(|b| b.0).sum::<f64>() / n;
+            let spread = blocks.iter().map(|b| (b.0 - mean).powi(2)).sum::<f64>() / (n - 1.0);
+            let noise = blocks.iter().map(|b| b.1).sum::<f64>() / n;
+            out[m] = (spread - noise).max(0.0).sqrt();
+        }
+        out
     }
 
     /// The load-cell offset signature's score of one trip: mean x_load·r_U less what the
@@ -309,34 +317,6 @@ impl SequentialConfig {
         }
         (score, info)
     }
-}
-
-/// [`SequentialConfig::block_wander`] of one signature, whose per-trip score and information
-/// `score_info` gives, with healthy variance `s2` per unit information.
-fn wander_of(
-    trips: &[TripEvidence],
-    s2: f64,
-    score_info: impl Fn(&TripEvidence) -> (f64, f64),
-) -> f64 {
-    let blocks: Vec<(f64, f64)> = trips
-        .chunks_exact(WANDER_BLOCK_TRIPS)
-        .map(|b| {
-            let (s, i) = b.iter().fold((0.0, 0.0), |(s, i), t| {
-                let (score, info) = score_info(t);
-                (s + score, i + info)
-            });
-            (s / i, s2 / i)
-        })
-        .filter(|(y, v)| y.is_finite() && v.is_finite())
-        .collect();
-    if blocks.len() < 2 {
-        return 0.0;
-    }
-    let n = blocks.len() as f64;
-    let mean = blocks.iter().map(|b| b.0).sum::<f64>() / n;
-    let spread = blocks.iter().map(|b| (b.0 - mean).powi(2)).sum::<f64>() / (n - 1.0);
-    let noise = blocks.iter().map(|b| b.1).sum::<f64>() / n;
-    (spread - noise).max(0.0).sqrt()
 }
 
 /// One CUSUM with the sums of the window it holds as changed.
@@ -483,23 +463,8 @@ fn isolate(cfg: &SequentialConfig, c: &Cusum) -> (FaultMode, [f64; N_MODES], f64
             0.0
         };
     }
-    // The load cell is judged in the noisiest of the four healthy variances. Its own is
-    // small: x_load is nearly one-signed per direction, and the healthy wander that the
-    // winding's heating leaves along the motor signature (∝ F, which the load moves) hardly
-    // projects on it. A drive fault's window projected on the quiet load direction then
-    // looked more significant there than on its own (the first evaluation with the fourth
-    // signature named 16 of 48 machine faults `sensor`). In the common, largest noise a pure
-    // fault along x_m gives z²_load = ρ²·z²_m ≤ z²_m, so the load cell wins only what it
-    // explains better than the machine signatures.
-    // A window's sum also carries the healthy level of its days along x_load, W·θ_level with
-    // θ_level of sd `load_wander`, which grows with the window as W² where the noise grows as
-    // W: over the thousands of trips of a slow ramp's window, a level the training never saw
-    // made the load cell outweigh a real friction or brake change.
-    let s2_common = cfg.s2.iter().fold(cfg.load_s2, |a, &b| a.max(b));
-    let w = c.w_load;
-    let var_load = s2_common * w + (w * cfg.load_wander).powi(2);
-    let z2_load = if cfg.load_s2 > 0.0 && var_load > 0.0 {
-        c.s_load * c.s_load / var_load
+    let z2_load = if cfg.load_s2 > 0.0 && c.w_load > 0.0 {
+        c.s_load * c.s_load / (cfg.load_s2 * c.w_load)
     } else {
         0.0
     };

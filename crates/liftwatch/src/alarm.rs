@@ -123,10 +123,6 @@ pub struct Evidence {
     /// The same for the friction signature.
     #[serde(default)]
     pub llr_friction: f64,
-    /// The same for the load-cell offset signature (a zero that drifts either way): when it
-    /// leads by ln 20 the mode is `sensor` with `channel: load`.
-    #[serde(default)]
-    pub llr_load: f64,
 }
 
 impl Evidence {
@@ -156,7 +152,6 @@ impl Evidence {
             llr_motor: a.decision.isolation[MOTOR],
             llr_brake: a.decision.isolation[BRAKE],
             llr_friction: a.decision.isolation[FRICTION],
-            llr_load: a.decision.isolation_load,
         }
     }
 }

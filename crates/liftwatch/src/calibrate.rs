@@ -644,7 +644,7 @@ mod tests {
         let m = test_model();
         let beta = 0.4;
         let none = |_: f64, _: &[f64; N_MODES]| 0.0;
-        let healthy = crate::risk::tests::heated_trips(&m, 11, 8.0, 0.0, &none, beta, &|_| 0.0);
+        let healthy = crate::risk::tests::heated_trips(&m, 11, 8.0, 0.0, &none, beta);
         let settings = CalibrationSettings {
             years: 5.0,
             ..CalibrationSettings::default()
@@ -663,7 +663,7 @@ mod tests {
         );
         // Unheated healthy trips identify none.
         assert_eq!(calibrated(&m).risk.heating, [0.0; N_HEAT]);
-        let month = crate::risk::tests::heated_trips(&m, 99, 30.0, 0.0, &none, beta, &|_| 0.0);
+        let month = crate::risk::tests::heated_trips(&m, 99, 30.0, 0.0, &none, beta);
         let a = run(&cfg, &month);
         let seq = a.iter().map(|a| a.decision.ratio).fold(0.0, f64::max);
         assert!(seq < 1.0, "the heating crossed a CUSUM: G/h = {seq}");
@@ -865,52 +865,6 @@ mod tests {
                 .all(|(a, _)| a.decision.ratio < 1.0),
             "crossed before the step"
         );
-    }
-
-    #[test]
-    fn a_load_cell_read_off_is_named_sensor_and_a_drive_fault_of_the_same_size_motor() {
-        // The cell reads 3 % of rated load high from day 1 on: every λ is off, and the force
-        // the model expects with it. It moves the motor score too (the car's imbalance makes
-        // F, and so the motor signature, mostly one-signed), but the load-cell signature
-        // explains the window better: the decision names `sensor`. A Kd rise decided as
-        // quickly must still be `motor`.
-        let m = test_model();
-        let cfg = calibrated(&m).risk;
-        let seq = cfg.sequential.as_ref().expect("the signatures separate");
-        assert!(seq.load_s2 > 0.0, "the calibration measures the load signature");
-        let onset = 86_400.0;
-        let first_decision = |trips: &[TripEvidence]| {
-            run(&cfg, trips)
-                .into_iter()
-                .zip(trips)
-                .filter(|(_, t)| t.start > onset)
-                .map(|(a, _)| a.decision)
-                .find(|d| d.ratio >= 1.0)
-        };
-        let none = |_: f64, _: &[f64; N_MODES]| 0.0;
-        let cell = crate::risk::tests::heated_trips(&m, 31, 4.0, 0.0, &none, 0.0, &|t| {
-            if t > onset {
-                0.03
-            } else {
-                0.0
-            }
-        });
-        let d = first_decision(&cell).expect("a 3 % cell offset is decided");
-        assert_eq!(d.mode, crate::mode::FaultMode::Sensor, "{d:?}");
-        assert!(
-            d.isolation_load > d.isolation[MOTOR] + crate::risk::sequential::ISOLATION_ODDS.ln(),
-            "{d:?}"
-        );
-
-        let drive = synthetic_trips(&m, 31, 4.0, 0.0, &|t, x| {
-            if t > onset {
-                0.05 * x[MOTOR]
-            } else {
-                0.0
-            }
-        });
-        let d = first_decision(&drive).expect("Kd +5 % is decided");
-        assert_eq!(d.mode, crate::mode::FaultMode::Motor, "{d:?}");
     }
 
     #[test]

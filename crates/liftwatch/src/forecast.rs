@@ -563,7 +563,6 @@ mod tests {
             rr: 1.0,
             plausible: true,
             heat: Default::default(),
-            load: Default::default(),
         };
         let blocks = MAX_POINTS + 30;
         for k in 0..blocks * BLOCK_TRIPS as usize {

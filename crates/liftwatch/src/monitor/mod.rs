@@ -39,7 +39,6 @@ use serde::{Deserialize, Serialize};
 use crate::alarm::{update_episode, AlarmState, Event, Evidence, FaultMode, Level};
 use crate::baseline::Baseline;
 use crate::error::{Error, Result};
-use crate::ingest::Signal;
 use crate::features::{FeatureRow, FeatureTracker, Trip};
 use crate::fit::FittedModel;
 use crate::forecast::DriftHistory;
@@ -624,14 +623,8 @@ impl Monitor {
         if update_episode(&mut st.episode_mode, before, &st.alarm, &a, cfg) {
             let evidence =
                 Evidence::from_assessment(&a, self.friction.0, st.risk.trips, st.implausible_trips);
-            // A sensor check names its channel; the sequential decision names the load cell
-            // when its signature explains the change.
             let channel = (st.episode_mode == FaultMode::Sensor)
-                .then(|| {
-                    st.sensor.channel(&self.model.sensor, x.time).or(
-                        (a.decision.mode == FaultMode::Sensor).then_some(Signal::Load),
-                    )
-                })
+                .then(|| st.sensor.channel(&self.model.sensor, x.time))
                 .flatten();
             event = Some(Event {
                 time: x.time,
@@ -703,6 +696,7 @@ mod tests {
     use crate::elevator::Elevator;
     use crate::residual::tests::{test_features, test_model as test_hybrid};
     use crate::sim::{simulate, SensorFault, SimConfig};
+    use crate::ingest::Signal;
 
     /// The unit-test hybrid model with uncalibrated later stages.
     fn test_model() -> FittedModel {

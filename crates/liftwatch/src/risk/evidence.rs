@@ -13,11 +13,6 @@
 //!                                        resistance follows the copper losses I²R ∝ F²
 //!                                        through the winding's thermal lag
 //!   per trip: mean x·x_heat,k, mean x_heat,k·x_heat,l, mean x_heat,k·r_U
-//!
-//! load-cell offset (a sensor signature, for isolation only):
-//!   x_load = φ(s)·Kd·s·M_r·(a + g)       the voltage of λ read Δλ off: m_eq and M_tot move by
-//!                                        Δλ·M_r, the force by Δλ·M_r·(a + g)
-//!   per trip: mean x·x_load, mean x_load², mean x_load·r_U, mean x_heat,k·x_load
 //! ```
 //!
 //! The heating coefficients β_k are identified on the healthy trips beside the signatures
@@ -61,24 +56,6 @@ pub struct TripEvidence {
     /// before it was kept, which then carries no heating.
     #[serde(default)]
     pub heat: HeatEvidence,
-    /// The trip's share of the load-cell offset signature x_load; zero in evidence written
-    /// before it was kept, which then never points at the load cell.
-    #[serde(default)]
-    pub load: LoadEvidence,
-}
-
-/// A trip's means of the load-cell offset signature x_load against the machine signatures,
-/// itself, r_U and the heating regressors.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
-pub struct LoadEvidence {
-    /// Mean of x_m·x_load per signature m (V²).
-    pub xl: [f64; N_MODES],
-    /// Mean of x_load² (V²).
-    pub ll: f64,
-    /// Mean of x_load·r_U (V²).
-    pub lr: f64,
-    /// Mean of x_heat,k·x_load per lag k (V²).
-    pub hl: [f64; N_HEAT],
 }
 
 /// A trip's means of the heating regressors x_heat,k = x_motor·H_k against the signatures,
@@ -112,7 +89,6 @@ impl TripEvidence {
             for m in 0..N_MODES {
                 t.xtr[m] -= beta[k] * h.xh[k][m];
             }
-            t.load.lr -= beta[k] * self.load.hl[k];
             rr -= 2.0 * beta[k] * h.hr[k];
             for l in 0..N_HEAT {
                 rr += beta[k] * h.hh[k][l] * beta[l];
@@ -172,13 +148,6 @@ pub fn signature(
     out[BRAKE] = if braking { phi_kd * f_c } else { 0.0 };
     out[FRICTION] = phi_kd * (f_c + c_visc * x.v.abs());
     out
-}
-
-/// The load-cell offset signature of one moving sample (V per unit λ, i.e. per rated load
-/// read too high): the voltage the model expects to move when every λ is off by one.
-pub fn load_signature(model: &HybridModel, x: &FeatureRow) -> f64 {
-    let p = &model.parameters;
-    p.phi(x.s) * p.kd * f64::from(x.s) * model.elevator.rated_load_kg * (x.a + G)
 }
 
 /// Number of thermal lags of the heating basis.
@@ -273,8 +242,6 @@ pub struct TripAccumulator {
     rr: f64,
     #[serde(default)]
     heat: HeatEvidence,
-    #[serde(default)]
-    load: LoadEvidence,
 }
 
 impl TripAccumulator {
@@ -317,14 +284,7 @@ impl TripAccumulator {
                 k += 1;
             }
         }
-        let x_load = load_signature(model, x);
-        for i in 0..N_MODES {
-            self.load.xl[i] += sig[i] * x_load;
-        }
-        self.load.ll += x_load * x_load;
-        self.load.lr += x_load * r.r_u;
         for (l, xl) in x_heat.iter().enumerate() {
-            self.load.hl[l] += xl * x_load;
             for i in 0..N_MODES {
                 self.heat.xh[l][i] += sig[i] * xl;
             }
@@ -373,12 +333,6 @@ impl TripAccumulator {
                 xh: a.heat.xh.map(|row| row.map(|v| v / n)),
                 hh: a.heat.hh.map(|row| row.map(|v| v / n)),
                 hr: a.heat.hr.map(|v| v / n),
-            },
-            load: LoadEvidence {
-                xl: a.load.xl.map(|v| v / n),
-                ll: a.load.ll / n,
-                lr: a.load.lr / n,
-                hl: a.load.hl.map(|v| v / n),
             },
         })
     }

@@ -72,8 +72,8 @@ mod tracker;
 
 pub(crate) use evidence::spd_inverse;
 pub use evidence::{
-    friction_reference, heating_reference, load_signature, signature, trip_evidence, HeatEvidence,
-    Heating, LoadEvidence, TripAccumulator, TripEvidence, N_HEAT, WINDING_TAUS_S,
+    friction_reference, heating_reference, signature, trip_evidence, HeatEvidence, Heating,
+    TripAccumulator, TripEvidence, N_HEAT, WINDING_TAUS_S,
 };
 pub use sequential::{Decision, Sequential, SequentialConfig};
 pub(crate) use tracker::excess;

@@ -17,9 +17,7 @@
 //! crossing: G ≥ h_mj                                  h calibrated (crate::calibrate)
 //! ratio   = max over m, j of G_mj/h_mj                ≥ 1: the decision says "changed"
 //! mode    = argmax_m z_m on the crossing window,  z_m = S_m/(s_m·√W_mm), one signature alone,
-//!           named when z_best² − z_second² ≥ 2·ln(ISOLATION_ODDS), else unknown;
-//!           the load-cell offset x_load competes beside the three (|S_load|: the cell may
-//!           drift either way) and, when it wins, the mode is `sensor` (the load channel)
+//!           named when z_best² − z_second² ≥ 2·ln(ISOLATION_ODDS), else unknown
 //! drift   = W⁻¹·S on that window (all three signatures jointly),
 //!           SE² = diag(W⁻¹)·max s² + wander²        wander: healthy sd between blocks of 50 trips
 //! ```
@@ -33,13 +31,6 @@
 //! errors is flagged within about ten trips, and a slow ramp by the small size once its mean
 //! exceeds it. The drift is estimated on the trips the crossing CUSUM holds as changed, not
 //! on the long memory, so it is the size of the change, not a lagged fraction of it.
-//!
-//! Why a load-cell signature in the isolation: a drifting zero shifts every λ, and with it the
-//! force the model expects by Δλ·M_r·(a + g), a constant pull in the travel direction that the
-//! motor signature (∝ F, which the car's imbalance dominates) half explains. The parked-car
-//! zero check ([`crate::sensor`]) cannot see a drift below its 1 % floor, and the motor
-//! CUSUM of a busy 40-floor car crosses on 1 %: without the fourth signature the evaluation
-//! named `motor` for the load-cell drift on two of three cars.
 //!
 //! Isolation is by the likelihood of each signature alone: a friction rise also moves the
 //! motor score (the signatures are not orthogonal), but less than it moves its own. (Isolating
@@ -104,10 +95,6 @@ pub struct SequentialConfig {
     /// 0 in models fitted before it was kept, which then behave as before.
     #[serde(default)]
     pub reference_se: [f64; N_MODES],
-    /// s² of the load-cell offset signature (V²), as `s2`; 0 in models fitted before it was
-    /// kept, which then never name the load cell.
-    #[serde(default)]
-    pub load_s2: f64,
 }
 
 /// Standard errors of the reference θ0 a trip's score must exceed before a CUSUM counts it:
@@ -159,7 +146,6 @@ impl SequentialConfig {
                 1e3,
             )?;
         }
-        check("risk.sequential.load_s2", self.load_s2, 0.0, 1e30)?;
         Ok(())
     }
 
@@ -189,22 +175,14 @@ impl SequentialConfig {
             h: [[h; N_SIZES]; N_MODES],
             wander: [0.0; N_MODES],
             reference_se: [0.0; N_MODES],
-            load_s2: 0.0,
         };
         let (mut ss, mut si) = ([0.0; N_MODES], [0.0; N_MODES]);
-        let (mut ls, mut li) = (0.0, 0.0);
         for t in trips {
             let (score, info) = cfg.score(t);
             for m in 0..N_MODES {
                 ss[m] += score[m] * score[m];
                 si[m] += info[m];
             }
-            let l = cfg.load_score(t);
-            ls += l * l;
-            li += t.load.ll;
-        }
-        if li > 0.0 && ls > 0.0 {
-            cfg.load_s2 = ls / li;
         }
         let n = trips.len().max(1) as f64;
         for m in 0..N_MODES {
@@ -296,15 +274,6 @@ impl SequentialConfig {
         out
     }
 
-    /// The load-cell offset signature's score of one trip: mean x_load·r_U less what the
-    /// healthy θ0 explains of it.
-    fn load_score(&self, t: &TripEvidence) -> f64 {
-        t.load.lr
-            - (0..N_MODES)
-                .map(|m| t.load.xl[m] * self.theta0[m])
-                .sum::<f64>()
-    }
-
     /// Score and information of one trip per mode.
     fn score(&self, t: &TripEvidence) -> ([f64; N_MODES], [f64; N_MODES]) {
         let xtx = unpack(&t.xtx);
@@ -333,12 +302,6 @@ pub struct Cusum {
     /// Σ x·xᵀ over the window (packed upper triangle).
     #[serde(with = "exact::array")]
     pub w: [f64; 6],
-    /// Σ load-cell offset score over the window.
-    #[serde(with = "exact", default)]
-    pub s_load: f64,
-    /// Σ x_load² over the window.
-    #[serde(with = "exact", default)]
-    pub w_load: f64,
 }
 
 /// What the sequential decision concluded after one trip.
@@ -368,9 +331,6 @@ pub struct Decision {
     /// [`ISOLATION_ODDS`]).
     #[serde(with = "exact::array", default)]
     pub isolation: [f64; N_MODES],
-    /// The same for the load-cell offset signature (0 when the model has none).
-    #[serde(with = "exact", default)]
-    pub isolation_load: f64,
 }
 
 /// The CUSUM bank of one elevator: one per mode and size.
@@ -384,7 +344,6 @@ impl Sequential {
     /// Takes one usable trip and returns the decision.
     pub fn push(&mut self, cfg: &SequentialConfig, t: &TripEvidence) -> Decision {
         let (score, info) = cfg.score(t);
-        let load_score = cfg.load_score(t);
         let mut lead = (0usize, 0usize, 0.0f64);
         for m in 0..N_MODES {
             // In standardised units: u = score/(s·√info), ν = δ·√info/s per this trip.
@@ -414,8 +373,6 @@ impl Sequential {
                 for k in 0..6 {
                     c.w[k] += t.xtx[k];
                 }
-                c.s_load += load_score;
-                c.w_load += t.load.ll;
                 let r = c.g / cfg.h[m][j];
                 if r > lead.2 {
                     lead = (m, j, r);
@@ -424,16 +381,15 @@ impl Sequential {
         }
         let c = &self.bank[lead.0][lead.1];
         let (drift, drift_se) = window_drift(cfg, c);
-        let (mode, isolation, isolation_load) = if c.trips > 0 {
+        let (mode, isolation) = if c.trips > 0 {
             isolate(cfg, c)
         } else {
-            (FaultMode::Unknown, [0.0; N_MODES], 0.0)
+            (FaultMode::Unknown, [0.0; N_MODES])
         };
         Decision {
             ratio: lead.2,
             mode,
             isolation,
-            isolation_load,
             drift,
             drift_se,
             window_trips: c.trips,
@@ -449,10 +405,9 @@ impl Sequential {
 }
 
 /// The mode whose signature alone explains the window best, when it does so by the odds of
-/// [`ISOLATION_ODDS`], with each machine signature's log-likelihood ratio z²/2 and the load
-/// cell's; only rises (positive scores) are machine degradations, a load cell may drift
-/// either way. The load cell winning names `sensor`.
-fn isolate(cfg: &SequentialConfig, c: &Cusum) -> (FaultMode, [f64; N_MODES], f64) {
+/// [`ISOLATION_ODDS`], with each signature's log-likelihood ratio z²/2; only rises (positive
+/// scores) are degradations.
+fn isolate(cfg: &SequentialConfig, c: &Cusum) -> (FaultMode, [f64; N_MODES]) {
     let w = unpack(&c.w);
     let mut z2 = [0.0; N_MODES];
     for m in 0..N_MODES {
@@ -463,25 +418,14 @@ fn isolate(cfg: &SequentialConfig, c: &Cusum) -> (FaultMode, [f64; N_MODES], f64
             0.0
         };
     }
-    let z2_load = if cfg.load_s2 > 0.0 && c.w_load > 0.0 {
-        c.s_load * c.s_load / (cfg.load_s2 * c.w_load)
-    } else {
-        0.0
-    };
-    // (z², mode) of the four signatures, best first.
-    let mut ranked = [
-        (z2[MACHINE_MODES[0] as usize], MACHINE_MODES[0]),
-        (z2[MACHINE_MODES[1] as usize], MACHINE_MODES[1]),
-        (z2[MACHINE_MODES[2] as usize], MACHINE_MODES[2]),
-        (z2_load, FaultMode::Sensor),
-    ];
-    ranked.sort_by(|a, b| b.0.total_cmp(&a.0));
-    let mode = if ranked[0].0 - ranked[1].0 >= 2.0 * ISOLATION_ODDS.ln() {
-        ranked[0].1
+    let mut order = MACHINE_MODES;
+    order.sort_by(|a, b| z2[*b as usize].total_cmp(&z2[*a as usize]));
+    let mode = if z2[order[0] as usize] - z2[order[1] as usize] >= 2.0 * ISOLATION_ODDS.ln() {
+        order[0]
     } else {
         FaultMode::Unknown
     };
-    (mode, z2.map(|z| 0.5 * z), 0.5 * z2_load)
+    (mode, z2.map(|z| 0.5 * z))
 }
 
 /// Joint estimate of the three drifts on a window, with standard errors from the healthy

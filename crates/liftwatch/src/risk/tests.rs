@@ -20,12 +20,12 @@ pub(crate) fn synthetic_trips(
     t0: f64,
     fault: Injection,
 ) -> Vec<TripEvidence> {
-    heated_trips(model, seed, days, t0, fault, 0.0, &|_| 0.0)
+    heated_trips(model, seed, days, t0, fault, 0.0)
 }
 
 /// [`synthetic_trips`] on a winding that heats: Kd·(1 + β·H) with H a first-order lag of
 /// 45 min of (F/F_ref)² (none of [`WINDING_TAUS_S`]), the evidence carrying the monitor's
-/// [`Heating`] basis; the load cell reads `cell_bias(t)` (of rated load) above the truth.
+/// [`Heating`] basis.
 pub(crate) fn heated_trips(
     model: &HybridModel,
     seed: u64,
@@ -33,7 +33,6 @@ pub(crate) fn heated_trips(
     t0: f64,
     fault: Injection,
     beta: f64,
-    cell_bias: &dyn Fn(f64) -> f64,
 ) -> Vec<TripEvidence> {
     let mut heating = Heating::default();
     let mut winding = (0.0f64, f64::NAN);
@@ -66,17 +65,7 @@ pub(crate) fn heated_trips(
         .collect();
         for (i, (speed, acc_mag, phase)) in profile.into_iter().enumerate() {
             let time = t + i as f64;
-            // The voltage of the true load; the monitor reads the cell's.
-            let truth = row(model, time, s * speed, lambda, s * acc_mag, 0.0);
-            let mut x = row(
-                model,
-                time,
-                s * speed,
-                lambda + cell_bias(time),
-                s * acc_mag,
-                0.0,
-            );
-            x.voltage = truth.voltage;
+            let mut x = row(model, time, s * speed, lambda, s * acc_mag, 0.0);
             x.phase = phase;
             let p = model.predict(&x);
             let sig = signature(model, friction, &x, p.f_pred);

@@ -20,10 +20,13 @@ use super::charts::{Chart, ChartCalibration};
 use super::trips::{TripGrouper, TripSummary};
 use super::{DAY_S, PERSISTENT_TRIPS, YEAR_DAYS};
 use crate::alarm::{Event, Level};
-use crate::error::Result;
+use crate::align::SampleSink;
+use crate::error::{Error, Result};
 use crate::ingest::Signal;
 use crate::mode::FaultMode;
 use crate::monitor::{Monitor, MonitorRow};
+use crate::sample::Sample;
+use crate::sim::logger::RawAligner;
 use crate::sim::{self, SimSink, TruthRow};
 
 /// One method's result on one case.
@@ -240,7 +243,8 @@ impl Metrics<'_> {
     }
 }
 
-/// A sink that monitors as the simulator produces, keeping only what the metrics need.
+/// The monitors of one case and what the metrics need of them: it receives the aligned
+/// samples ([`SampleSink`], from [`AlignedLog`]) and the true severity per grid second.
 pub(super) struct CaseSink {
     pub(super) pinn: Monitor,
     pub(super) thr: Monitor,
@@ -297,26 +301,72 @@ impl CaseSink {
             .or(self.severity.last())
             .map_or(f64::NAN, |&s| f64::from(s))
     }
-}
 
-impl SimSink for CaseSink {
-    fn raw(&mut self, _row: sim::RawRow) -> Result<()> {
-        Ok(())
-    }
-
-    fn truth(&mut self, row: &TruthRow) -> Result<()> {
+    /// Keeps the true severity of one grid second, indexed by its time: the aligned samples
+    /// lag the truth by the aligner's reorder window and may start a second later, so the
+    /// two are joined by time ([`CaseSink::severity_at`]), never by order.
+    fn truth(&mut self, row: &TruthRow) {
         let i = (row.sample.time - self.start).round().max(0.0) as usize;
         if self.severity.len() <= i {
             let last = self.severity.last().copied().unwrap_or(0.0);
             self.severity.resize(i + 1, last);
         }
         self.severity[i] = row.severity as f32;
-        if let Some(r) = self.pinn.push(&row.sample) {
+    }
+}
+
+impl SampleSink for CaseSink {
+    type Error = Error;
+
+    fn start(&mut self, _has_current: bool) -> Result<()> {
+        // The streaming pass never reads its input again (a late row is an error, see
+        // `sim::logger::RawAligner`), so this comes once, before any sample.
+        Ok(())
+    }
+
+    fn push(&mut self, sample: &Sample) -> Result<()> {
+        if let Some(r) = self.pinn.push(sample) {
             self.pinn_row(&r);
         }
-        if let Some(r) = self.thr.push(&row.sample) {
+        if let Some(r) = self.thr.push(sample) {
             self.thr_row(&r);
         }
+        Ok(())
+    }
+}
+
+/// What a case's monitors are fed, as the simulator produces it: the raw log aligned by the
+/// one aligner ([`RawAligner`], the streaming pass of `liftwatch align`), as a user would
+/// have it, not the sensors read at the grid instant ([`TruthRow::sample`]), which no aligner
+/// can make of a log whose clocks are phase-shifted: its trip edges and accelerations carry
+/// no interpolation error, and the evaluation must be no easier than the field. Memory stays
+/// bounded by the aligner's reorder window.
+pub(super) struct AlignedLog<'a> {
+    aligner: RawAligner,
+    sink: &'a mut CaseSink,
+}
+
+impl<'a> AlignedLog<'a> {
+    pub(super) fn new(sink: &'a mut CaseSink) -> Result<Self> {
+        Ok(AlignedLog {
+            aligner: RawAligner::new()?,
+            sink,
+        })
+    }
+
+    /// Aligns the end of the log into the monitors (which the caller then finishes).
+    pub(super) fn finish(mut self) -> Result<()> {
+        self.aligner.flush(self.sink)
+    }
+}
+
+impl SimSink for AlignedLog<'_> {
+    fn raw(&mut self, row: sim::RawRow) -> Result<()> {
+        self.aligner.push(&row, self.sink)
+    }
+
+    fn truth(&mut self, row: &TruthRow) -> Result<()> {
+        self.sink.truth(row);
         Ok(())
     }
 }

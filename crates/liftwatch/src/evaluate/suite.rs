@@ -13,7 +13,7 @@ use std::time::Instant;
 use serde::Serialize;
 
 use super::charts::{ChartCalibration, Cusum, Ewma, CUSUM_K, EWMA_LAMBDA};
-use super::metrics::{CaseSink, MethodResult, Metrics};
+use super::metrics::{AlignedLog, CaseSink, MethodResult, Metrics};
 use super::trips::{healthy_trip_means, TripGrouper};
 use super::DAY_S;
 use crate::alarm::Level;
@@ -276,7 +276,9 @@ pub fn train(fe: &FleetElevator, e: usize, cfg: &SuiteConfig) -> Result<Trained>
         // service, not the empty small hours a midnight start would give it.
         sc.start_s = SHORT_TRAINING_START_H * 3600.0;
     }
-    let series = sim::simulate(&sc)?.aligned();
+    // Fitted on what the technician would have: the training log aligned by the one aligner,
+    // with its interpolation error at trip edges, as the monitored runs are watched.
+    let (series, _) = sim::simulate_aligned(&sc)?;
     let outcome = fit(&series, &fe.elevator, &TrainConfig::default(), &mut |_| {})?;
     let model = outcome.model;
     let means = healthy_trip_means(&model, &series);
@@ -333,7 +335,11 @@ pub fn run_case(case: &Case, trained: &Trained, cfg: &SuiteConfig) -> Result<Cas
         severity: Vec::with_capacity((case.days * DAY_S) as usize + 2),
         start: sc.start_s,
     };
-    sim::run(&sc, &mut sink, &mut |_| {})?;
+    // The monitors watch the raw log aligned as it is logged, as in the field; the truth rows
+    // only give the severity per second.
+    let mut log = AlignedLog::new(&mut sink)?;
+    sim::run(&sc, &mut log, &mut |_| {})?;
+    log.finish()?;
     sink.finish();
     let onset = case.onset_days.map(|d| sc.start_s + d * DAY_S);
     let end = sc.start_s + sc.duration_s();

@@ -298,9 +298,58 @@ pub const ALIGNED_HEADER: [&str; 15] = [
 /// grid (before its first reading, after its last) has no row. Memory stays bounded by the
 /// aligner's reorder window.
 pub struct AlignedCsvWriter {
-    stream: RowStream,
+    stream: RawAligner,
     join: Join,
+}
+
+/// The one aligner of [`crate::align`] (its streaming pass of a file, [`RowStream`]) fed with
+/// the simulator's raw rows as a reader of `raw.csv` gets them back: their written text parsed,
+/// in logging order. What it releases is what `liftwatch align` makes of `raw.csv`, so every
+/// consumer of a simulated log (`aligned.csv`, the evaluation's training and monitoring) sees
+/// the interpolation error a real log carries, not the sensors read at the grid instant.
+/// Memory stays bounded by the aligner's reorder window.
+pub(crate) struct RawAligner {
+    stream: RowStream,
     text: Vec<u8>,
+}
+
+impl RawAligner {
+    /// An empty stream with the default alignment settings, as `align` uses for `raw.csv`.
+    ///
+    /// # Errors
+    /// [`Error::InvalidConfig`] should the default settings be invalid.
+    pub(crate) fn new() -> Result<Self> {
+        Ok(RawAligner {
+            stream: RowStream::new(&AlignConfig::default(), Path::new("raw.csv"))?,
+            text: Vec::with_capacity(32),
+        })
+    }
+
+    /// Takes one raw row, in logging order; grid points it makes certain go to `sink`.
+    ///
+    /// # Errors
+    /// The sink's error; a row later than the reorder window (the logger stays well inside it).
+    pub(crate) fn push<S: SampleSink>(&mut self, r: &RawRow, sink: &mut S) -> Result<(), S::Error> {
+        // The reading as a reader of raw.csv gets it: the written text, parsed as ingest does.
+        let text = &mut self.text;
+        let mut read = |v: f64, dec: usize| {
+            text.clear();
+            push_fixed(text, v, dec);
+            crate::text::parse_f64(text).filter(|x| x.is_finite())
+        };
+        let (Some(t), Some(v)) = (read(r.time, 3), read(r.value, decimals(r.signal))) else {
+            return Ok(());
+        };
+        self.stream.push(r.signal, t, v, sink)
+    }
+
+    /// The rest of the grid: the end of the log.
+    ///
+    /// # Errors
+    /// The sink's error.
+    pub(crate) fn flush<S: SampleSink>(&mut self, sink: &mut S) -> Result<(), S::Error> {
+        self.stream.flush(sink)
+    }
 }
 
 /// The receiving end of the aligner: samples joined with the truth rows and written.
@@ -403,7 +452,7 @@ impl AlignedCsvWriter {
             .and_then(|()| out.write_all(b"\n"))
             .map_err(|e| Error::io(path, e))?;
         Ok(AlignedCsvWriter {
-            stream: RowStream::new(&AlignConfig::default(), Path::new("raw.csv"))?,
+            stream: RawAligner::new()?,
             join: Join {
                 path: path.into(),
                 out,
@@ -413,7 +462,6 @@ impl AlignedCsvWriter {
                 truth: VecDeque::new(),
                 rows: 0,
             },
-            text: Vec::with_capacity(32),
         })
     }
 
@@ -422,16 +470,7 @@ impl AlignedCsvWriter {
     /// # Errors
     /// [`Error::Io`] when writing fails.
     pub fn raw(&mut self, r: &RawRow) -> Result<()> {
-        // The reading as a reader of raw.csv gets it: the written text, parsed as ingest does.
-        let mut read = |v: f64, dec: usize| {
-            self.text.clear();
-            push_fixed(&mut self.text, v, dec);
-            crate::text::parse_f64(&self.text).filter(|x| x.is_finite())
-        };
-        let (Some(t), Some(v)) = (read(r.time, 3), read(r.value, decimals(r.signal))) else {
-            return Ok(());
-        };
-        self.stream.push(r.signal, t, v, &mut self.join)
+        self.stream.push(r, &mut self.join)
     }
 
     /// Takes the truth of one grid second, in time order.

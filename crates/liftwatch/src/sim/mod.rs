@@ -84,6 +84,7 @@ use std::path::Path;
 
 use serde::Serialize;
 
+use crate::align::AlignConfig;
 use crate::elevator::Elevator;
 use crate::error::{Error, Result};
 use crate::mode::FaultMode;
@@ -99,7 +100,7 @@ pub use service::{DoorBehaviour, OutageKind, OutagePlan, OutageTruth};
 pub use traffic::{Call, Traffic};
 
 use engine::Engine;
-use logger::{RawLogger, SensorClock};
+use logger::{RawAligner, RawLogger, SensorClock};
 use plant::sign;
 
 /// Settings of one simulation run.
@@ -264,8 +265,8 @@ pub struct SimSummary {
     pub raw_rows: u64,
     /// Grid seconds produced (sensors read at the grid instant, with the truth).
     pub truth_rows: u64,
-    /// Rows of `aligned.csv` ([`write_dir`]): the grid points of the raw log, a second or two
-    /// fewer than `truth_rows` (0 for a run kept in memory).
+    /// Rows of `aligned.csv` ([`write_dir`]) or samples of [`simulate_aligned`]: the grid
+    /// points of the raw log, a second or two fewer than `truth_rows` (0 for [`simulate`]).
     pub aligned_rows: u64,
     /// Time in motion (s).
     pub moving_s: f64,
@@ -321,7 +322,8 @@ pub struct SimOutput {
 
 impl SimOutput {
     /// The sensors read at the grid instant (DATA.md §2 signals only): an idealised series,
-    /// not what aligning [`SimOutput::raw`] gives (that is what `aligned.csv` holds).
+    /// not what aligning [`SimOutput::raw`] gives (that is what `aligned.csv` and
+    /// [`simulate_aligned`] hold).
     pub fn aligned(&self) -> AlignedSeries {
         AlignedSeries {
             step_s: 1.0,
@@ -361,6 +363,40 @@ pub fn simulate(cfg: &SimConfig) -> Result<SimOutput> {
         rows: sink.rows,
         truth,
     })
+}
+
+/// Simulates the run and keeps what a user of its log would have: the alignment of the raw
+/// rows by the one aligner of [`crate::align`], the series `aligned.csv` holds and `liftwatch
+/// align` makes of `raw.csv` (not [`SimOutput::aligned`], the sensors read at the grid
+/// instant). Only the aligned series is kept in memory, not the raw rows or the truth rows.
+///
+/// # Errors
+/// [`Error::InvalidConfig`] when a setting is out of range.
+pub fn simulate_aligned(cfg: &SimConfig) -> Result<(AlignedSeries, SimTruth)> {
+    struct Aligned {
+        aligner: RawAligner,
+        samples: Vec<Sample>,
+    }
+    impl SimSink for Aligned {
+        fn raw(&mut self, row: RawRow) -> Result<()> {
+            self.aligner.push(&row, &mut self.samples)
+        }
+        fn truth(&mut self, _row: &TruthRow) -> Result<()> {
+            Ok(())
+        }
+    }
+    let mut sink = Aligned {
+        aligner: RawAligner::new()?,
+        samples: Vec::new(),
+    };
+    let mut truth = run(cfg, &mut sink, &mut |_| {})?;
+    sink.aligner.flush(&mut sink.samples)?;
+    truth.summary.aligned_rows = sink.samples.len() as u64;
+    let series = AlignedSeries {
+        step_s: AlignConfig::default().step_s,
+        samples: sink.samples,
+    };
+    Ok((series, truth))
 }
 
 /// Simulates the run, handing rows to `sink` as they are produced; `progress` is called with

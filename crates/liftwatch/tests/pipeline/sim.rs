@@ -483,6 +483,22 @@ fn simulated_aligned_csv_is_the_alignment_of_its_own_raw_log() {
         moving > 100 && gaps > 10,
         "{moving} moving, {gaps} with gaps"
     );
+    // The in-memory alignment of the log (what the evaluation trains on) is the same series.
+    let (in_memory, truth) = sim::simulate_aligned(&cfg).unwrap();
+    assert_eq!(in_memory.len(), written.len());
+    assert_eq!(truth.summary.aligned_rows, written.len() as u64);
+    for (m, w) in in_memory.samples.iter().zip(&written.samples) {
+        assert_eq!(m.time, w.time);
+        for (x, y) in fields(m).into_iter().zip(fields(w)) {
+            assert!(
+                (x.is_nan() && y.is_nan()) || (x - y).abs() <= 1e-6,
+                "at {} s simulate_aligned has {:?}, aligned.csv {:?}",
+                m.time,
+                fields(m),
+                fields(w)
+            );
+        }
+    }
     // The truth columns stay with their grid instant: the aligned speed follows the true one.
     let text = std::fs::read_to_string(dir.0.join("aligned.csv")).unwrap();
     let (mut d, mut n) = (0.0, 0.0);

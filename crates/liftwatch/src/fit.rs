@@ -69,10 +69,6 @@ pub struct FitOutcome {
 /// Margin of the fixed-threshold baseline above the healthy extremes (fraction).
 pub const BASELINE_MARGIN: f64 = 0.5;
 
-/// Voltage noise σ of the interpolation weights of moving samples
-/// ([`train::interpolation_weight`]), as a share of the rated voltage: 0.5 %, about the noise
-/// of a drive's 1 Hz voltage reading.
-const STANDSTILL_NOISE_SHARE: f64 = 0.005;
 
 /// The whole identification: features (with the load-cell gain fitted on this history),
 /// the hybrid model, healthy residual scales, the baseline's limits and the calibration of the
@@ -122,7 +118,7 @@ pub fn fit_with(
         elevator.floors,
         cfg.standstill_share,
         prior.ke,
-        STANDSTILL_NOISE_SHARE * elevator.rated_voltage(),
+        train::INTERPOLATION_NOISE_SHARE * elevator.rated_voltage(),
     )?;
     let trained = train::train(&observed.obs, elevator, cfg, observer)?;
     let mut summary = trained.summary;

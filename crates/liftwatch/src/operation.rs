@@ -105,9 +105,13 @@ pub const DOOR_BOOTSTRAP_YEARS: f64 = 10.0;
 /// For this long (s) after an outage ends the car serves the calls that waited through it:
 /// fuller cars, longer door cycles, a winding warming from cold, and a machine a technician
 /// may just have adjusted. Those door cycles are counted, not scored, and those trips are not
-/// machine evidence (on a simulated 4 h outage the door advisory came 30 min, and a machine
-/// `friction` advisory 70 min, after service resumed).
-pub const OUTAGE_BACKLOG_S: f64 = 3600.0;
+/// machine evidence. Three hours: a winding cold after a long outage takes about three of its
+/// 30-60 min time constants to come back within 5 % of its working temperature, and that
+/// early rise is where the heating model is least sure (on a simulated 4 h outage the door
+/// advisory came 30 min, a machine `friction` advisory 70 min, and, once the evidence took
+/// the fit's interpolation weights, a motor advisory 2.5 h after service resumed). Outages
+/// are rare, so the evidence this leaves out costs little.
+pub const OUTAGE_BACKLOG_S: f64 = 3.0 * 3600.0;
 
 /// Days of usage kept in the monitor state (trips, door cycles, availability per day).
 pub const USAGE_DAYS: usize = 60;

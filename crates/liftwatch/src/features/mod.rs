@@ -199,6 +199,11 @@ pub struct FeatureRow {
     pub a_l: f64,
     /// a: fused acceleration (m/s²).
     pub a: f64,
+    /// Δ²v: the second difference of v over the sample's neighbours (m/s), NaN without both:
+    /// how far linear interpolation between ≈1 Hz readings of their own clocks can err here
+    /// (|Δ²v|/8), the weight of the sample in the fit and the evidence
+    /// ([`crate::model::train::interpolation_weight_of`]).
+    pub d2v: f64,
     /// U: measured motor voltage (V).
     pub voltage: f64,
     /// Floor indicator (1-based), NaN when missing: the car's position for the rope imbalance.

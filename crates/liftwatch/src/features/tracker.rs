@@ -270,6 +270,10 @@ impl FeatureTracker {
         let a_l = accel::load_path(&self.cfg, &c, held_ref, lambda);
         let phase = accel::phase(&c, a_v);
         let a = accel::fuse(&self.cfg, &c, phase, lambda, a_v, a_l);
+        let d2v = match (p, n) {
+            (Some(p), Some(n)) => p.v - 2.0 * c.v + n.v,
+            _ => f64::NAN,
+        };
         FeatureRow {
             time: c.time,
             v: c.v,
@@ -278,6 +282,7 @@ impl FeatureTracker {
             a_v,
             a_l,
             a,
+            d2v,
             voltage: c.voltage,
             floor: c.floor,
             phase,

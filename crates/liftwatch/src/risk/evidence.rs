@@ -5,7 +5,8 @@
 //!
 //! ```text
 //! x_motor = φ(s)·Kd·s·F_pred    x_brake = φ(s)·Kd·F_c·1[s = −1 or decel]    x_fric = φ(s)·Kd·(F_c + c·|v|)
-//! per trip: mean e_U, mean e_F, mean x·xᵀ, mean x·r_U, mean r_U²
+//! per trip: mean e_U, mean e_F, mean w·x·xᵀ, mean w·x·r_U, mean w·r_U²
+//!           w = σ²/(σ² + (Ke·Δ²v/8)²), the fit's interpolation weight of the sample
 //!
 //! winding heating (healthy, predicted), two lags k of time constants τ_k (20 and 90 min):
 //!   H_k ← e^(−Δt/τ_k)·H_k + (1 − e^(−Δt/τ_k))·(F_pred/F_ref)²
@@ -26,6 +27,7 @@ use super::{RiskConfig, BRAKE, FRICTION, MOTOR, N_MODES};
 use crate::elevator::G;
 use crate::exact;
 use crate::features::{FeatureRow, Phase};
+use crate::model::train::{interpolation_weight_of, INTERPOLATION_NOISE_SHARE};
 use crate::model::{HybridModel, PhysParams, Prediction};
 use crate::residual::{PredictionCache, Residuals};
 
@@ -274,26 +276,34 @@ impl TripAccumulator {
             self.sum_e_f += r.e_f;
             self.n_f += 1;
         }
+        // Weighted as in the fit: a sample whose instant interpolation blurs (trip edges, jerk
+        // phases) carries a voltage error of Ke·|Δ²v|/8 that moves with the phase of the
+        // channels' clocks over days, and the evidence gives it the little trust the fit does.
+        let w = interpolation_weight_of(
+            x.d2v,
+            model.parameters.ke,
+            INTERPOLATION_NOISE_SHARE * model.elevator.rated_voltage(),
+        );
         let sig = signature(model, friction, x, p.f_pred);
         let x_heat = heating.map(|h| sig[MOTOR] * h);
         let mut k = 0;
         for i in 0..N_MODES {
-            self.xtr[i] += sig[i] * r.r_u;
+            self.xtr[i] += w * sig[i] * r.r_u;
             for j in i..N_MODES {
-                self.xtx[k] += sig[i] * sig[j];
+                self.xtx[k] += w * sig[i] * sig[j];
                 k += 1;
             }
         }
         for (l, xl) in x_heat.iter().enumerate() {
             for i in 0..N_MODES {
-                self.heat.xh[l][i] += sig[i] * xl;
+                self.heat.xh[l][i] += w * sig[i] * xl;
             }
-            self.heat.hr[l] += xl * r.r_u;
+            self.heat.hr[l] += w * xl * r.r_u;
             for (hh, xq) in self.heat.hh[l].iter_mut().zip(&x_heat) {
-                *hh += xl * xq;
+                *hh += w * xl * xq;
             }
         }
-        self.rr += r.r_u * r.r_u;
+        self.rr += w * r.r_u * r.r_u;
     }
 
     /// Moving samples so far.

@@ -69,7 +69,6 @@ pub struct FitOutcome {
 /// Margin of the fixed-threshold baseline above the healthy extremes (fraction).
 pub const BASELINE_MARGIN: f64 = 0.5;
 
-
 /// The whole identification: features (with the load-cell gain fitted on this history),
 /// the hybrid model, healthy residual scales, the baseline's limits and the calibration of the
 /// risk thresholds on the healthy trips.

@@ -288,7 +288,12 @@ impl SensorLimits {
                 1e-6,
                 1e4,
             )?;
-            check("sensor.rest_voltage_sd_v", self.rest_voltage_sd_v, 1e-9, 1e4)?;
+            check(
+                "sensor.rest_voltage_sd_v",
+                self.rest_voltage_sd_v,
+                1e-9,
+                1e4,
+            )?;
         }
         Ok(())
     }
@@ -343,7 +348,7 @@ impl SensorLimits {
         let mut rest = RestVoltage::default();
         let readings: Vec<f64> = samples.iter().filter_map(|x| rest.push(x, thr)).collect();
         let floor = REST_ALLOWANCE_FRAC * rated_voltage_v.abs();
-        if readings.len() < REST_MIN_STOPS || !(floor > 0.0) {
+        if readings.len() < REST_MIN_STOPS || floor.is_nan() || floor <= 0.0 {
             self.rest_voltage_v = None;
             return;
         }
@@ -582,11 +587,10 @@ impl SensorCheck {
     /// [`SensorCheck::verdict`]), the one behind the last of them; None when no sensor check
     /// holds it.
     pub fn channel(&self, cfg: &SensorLimits, time: f64) -> Option<Signal> {
-        self.channel_fault(cfg, time).or(
-            (self.score >= 0.5 * cfg.implausible_fraction)
+        self.channel_fault(cfg, time)
+            .or((self.score >= 0.5 * cfg.implausible_fraction)
                 .then_some(self.implausible_channel)
-                .flatten(),
-        )
+                .flatten())
     }
 
     /// Judges a completed trip: true when it is plausible machine evidence.
@@ -713,7 +717,13 @@ mod tests {
     /// drive reads `rest_v` (with 1 V of noise, quantised to 0.5 V) and, when it is off at
     /// rest (`pre_torque`), 40 V of pre-torque for a second either side of the motion; from
     /// stop `offset_from` on, the sensor reads 25 V high.
-    fn stops(n: usize, rest_v: f64, pre_torque: bool, offset_from: usize, seed: u64) -> Vec<Sample> {
+    fn stops(
+        n: usize,
+        rest_v: f64,
+        pre_torque: bool,
+        offset_from: usize,
+        seed: u64,
+    ) -> Vec<Sample> {
         let mut rng = crate::rng::Rng::new(seed);
         let mut out = Vec::new();
         let mut t = 0.0;
@@ -751,9 +761,18 @@ mod tests {
     fn a_shifted_rest_voltage_is_a_voltage_sensor_offset_within_a_few_stops() {
         for (rest_v, pre_torque) in [(0.3, true), (11.0, false)] {
             let mut limits = SensorLimits::default();
-            limits.calibrate_rest_voltage(&stops(300, rest_v, pre_torque, usize::MAX, 1), 0.05, 350.0);
-            let reference = limits.rest_voltage_v.expect("300 stops calibrate the check");
-            assert!((reference - rest_v).abs() < 0.5, "rest reading {reference} V");
+            limits.calibrate_rest_voltage(
+                &stops(300, rest_v, pre_torque, usize::MAX, 1),
+                0.05,
+                350.0,
+            );
+            let reference = limits
+                .rest_voltage_v
+                .expect("300 stops calibrate the check");
+            assert!(
+                (reference - rest_v).abs() < 0.5,
+                "rest reading {reference} V"
+            );
             // The allowance is the 1 % class of a 350 V drive: the healthy stops sit well inside.
             assert!((limits.rest_voltage_allowance_v - 3.5).abs() < 1e-9);
 

@@ -225,8 +225,9 @@ fn derive_seed(base: u64, e: usize, tag: u64) -> u64 {
 fn name_tag(name: &str) -> u64 {
     const FNV_OFFSET: u64 = 0xCBF2_9CE4_8422_2325;
     const FNV_PRIME: u64 = 0x0100_0000_01B3;
-    name.bytes()
-        .fold(FNV_OFFSET, |h, b| (h ^ u64::from(b)).wrapping_mul(FNV_PRIME))
+    name.bytes().fold(FNV_OFFSET, |h, b| {
+        (h ^ u64::from(b)).wrapping_mul(FNV_PRIME)
+    })
 }
 
 /// The trained reference of one elevator: hidden plant, model and chart limits.

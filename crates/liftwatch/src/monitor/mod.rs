@@ -694,9 +694,9 @@ impl Monitor {
 mod tests {
     use super::*;
     use crate::elevator::Elevator;
+    use crate::ingest::Signal;
     use crate::residual::tests::{test_features, test_model as test_hybrid};
     use crate::sim::{simulate, SensorFault, SimConfig};
-    use crate::ingest::Signal;
 
     /// The unit-test hybrid model with uncalibrated later stages.
     fn test_model() -> FittedModel {
@@ -856,7 +856,10 @@ mod tests {
         let mut sensor = model.sensor.clone();
         sensor.calibrate_rest_voltage(&samples(0.5, 8, None), thr, rated_v);
         model.sensor = sensor;
-        assert!(model.sensor.rest_voltage_v.is_some(), "half a day of stops calibrates it");
+        assert!(
+            model.sensor.rest_voltage_v.is_some(),
+            "half a day of stops calibrates it"
+        );
 
         let onset = 0.3 * 86_400.0;
         let fault = SensorFault::VoltageOffset {
@@ -868,7 +871,9 @@ mod tests {
             .iter()
             .filter_map(|r| r.event)
             .collect();
-        let first = events.first().expect("the offset must raise the sensor advisory");
+        let first = events
+            .first()
+            .expect("the offset must raise the sensor advisory");
         assert_eq!(
             (first.level, first.mode, first.channel),
             (Level::Advisory, FaultMode::Sensor, Some(Signal::Voltage))
@@ -877,7 +882,9 @@ mod tests {
         // within the six that follow it (the stops of a busy hour last about a minute).
         let stops_between = |a: f64, b: f64| {
             xs.windows(2)
-                .filter(|w| w[1].time > a && w[1].time <= b && w[0].speed > thr && w[1].speed <= thr)
+                .filter(|w| {
+                    w[1].time > a && w[1].time <= b && w[0].speed > thr && w[1].speed <= thr
+                })
                 .count()
         };
         assert!(first.time >= onset, "{events:?}");

@@ -330,14 +330,16 @@ impl RawAligner {
     /// # Errors
     /// The sink's error; a row later than the reorder window (the logger stays well inside it).
     pub(crate) fn push<S: SampleSink>(&mut self, r: &RawRow, sink: &mut S) -> Result<(), S::Error> {
-        // The reading as a reader of raw.csv gets it: the written text, parsed as ingest does.
-        let text = &mut self.text;
-        let mut read = |v: f64, dec: usize| {
-            text.clear();
-            push_fixed(text, v, dec);
-            crate::text::parse_f64(text).filter(|x| x.is_finite())
-        };
-        let (Some(t), Some(v)) = (read(r.time, 3), read(r.value, decimals(r.signal))) else {
+        // The reading as a reader of raw.csv gets it: its line as written (one formatter,
+        // `push_raw_line`), the time and value fields parsed as ingest parses them.
+        self.text.clear();
+        push_raw_line(&mut self.text, r);
+        let line = self.text.strip_suffix(b"\n").unwrap_or(&self.text);
+        let mut fields = line.split(|&b| b == b',');
+        let read = |f: Option<&[u8]>| f.and_then(crate::text::parse_f64).filter(|x| x.is_finite());
+        let t = read(fields.next());
+        let v = read(fields.nth(1));
+        let (Some(t), Some(v)) = (t, v) else {
             return Ok(());
         };
         self.stream.push(r.signal, t, v, sink)

@@ -146,11 +146,12 @@ pub fn fit_with(
     calibrated
         .sensor
         .calibrate_load_zero(&series.samples, feature_cfg.moving_threshold_mps);
-    let p = &hybrid.parameters;
     calibrated.sensor.calibrate_rest_voltage(
         &series.samples,
         feature_cfg.moving_threshold_mps,
-        p.u0 + p.ke * hybrid.elevator.rated_speed_mps,
+        hybrid
+            .parameters
+            .voltage(1, hybrid.elevator.rated_speed_mps, 0.0),
     );
     summary
         .warnings

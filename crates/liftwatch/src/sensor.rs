@@ -377,8 +377,6 @@ pub struct SensorCheck {
     /// Last time each channel (speed, direction, voltage, load, door, floor) had a value.
     #[serde(with = "exact::array")]
     last_seen: [f64; 6],
-    /// A channel has been missing longer than the limit while others report.
-    missing: bool,
     /// A load reading out of range since the last completed trip.
     load_out_of_range: bool,
     /// Door state of the previous sample (NaN unknown) and the load at the last door close.
@@ -414,7 +412,7 @@ pub struct SensorCheck {
     /// The rest-voltage CUSUMs G+ (reading up) and G− (down).
     #[serde(default, with = "exact::array")]
     rest_g: [f64; 2],
-    /// The channel the last missing-channel check found missing.
+    /// The channel missing longer than the limit while others report, if any.
     #[serde(default)]
     missing_channel: Option<Signal>,
     /// The channel behind the last implausible trip.
@@ -434,7 +432,6 @@ impl SensorCheck {
     pub fn new() -> Self {
         SensorCheck {
             last_seen: [f64::NAN; 6],
-            missing: false,
             load_out_of_range: false,
             door: f64::NAN,
             close_load: f64::NAN,
@@ -535,7 +532,6 @@ impl SensorCheck {
         }
         // A gap of every channel is the logger's, not a sensor's: it neither sets nor clears.
         if any {
-            self.missing = missing.is_some();
             self.missing_channel = missing;
         }
         let load_bad =
@@ -570,8 +566,8 @@ impl SensorCheck {
 
     /// The channel a condition independent of trips says is broken, if any.
     fn channel_fault(&self, cfg: &SensorLimits, time: f64) -> Option<Signal> {
-        if self.missing {
-            return Some(self.missing_channel.unwrap_or(Signal::Speed));
+        if self.missing_channel.is_some() {
+            return self.missing_channel;
         }
         if time - self.moving_since > cfg.max_trip_s {
             return Some(Signal::Speed);

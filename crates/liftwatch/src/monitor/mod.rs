@@ -851,8 +851,11 @@ mod tests {
         model.risk.advisory = 1e30;
         model.risk.alarm = 1e31;
         let thr = model.features.moving_threshold_mps;
-        let p = &model.hybrid.parameters;
-        let rated_v = p.u0 + p.ke * model.hybrid.elevator.rated_speed_mps;
+        let rated_v =
+            model
+                .hybrid
+                .parameters
+                .voltage(1, model.hybrid.elevator.rated_speed_mps, 0.0);
         let mut sensor = model.sensor.clone();
         sensor.calibrate_rest_voltage(&samples(0.5, 8, None), thr, rated_v);
         model.sensor = sensor;

@@ -12,7 +12,7 @@ use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use common::serve::{csv_rows, run, strip, Server, BIN, PATIENCE, TOKEN};
+use common::serve::{csv_rows, healthy_day, run, strip, Server, BIN, PATIENCE, TOKEN};
 use common::{free_port, Dir, Killed};
 use serde_json::Value;
 
@@ -63,28 +63,8 @@ fn telemetry_through_a_broker_gives_the_rows_of_a_batch_run_and_events_come_out(
     }
     let dir = Dir::new("serve-mqtt");
     let s = |p: &Path| p.to_str().unwrap().to_string();
-    let (healthy, worn) = (dir.path("healthy"), dir.path("worn"));
-    run(&[
-        "simulate",
-        "--out",
-        &s(&healthy),
-        "--days",
-        "1",
-        "--seed",
-        "6",
-        "-q",
-    ]);
-    let model = dir.path("model.json");
-    let (raw, elevator) = (healthy.join("raw.csv"), healthy.join("elevator.toml"));
-    run(&[
-        "fit",
-        "--input",
-        &s(&raw),
-        "--elevator",
-        &s(&elevator),
-        "--out",
-        &s(&model),
-    ]);
+    let worn = dir.path("worn");
+    let (_, model) = healthy_day(&dir, "6");
     // A stuck speed reading from 0.3 days on: a sensor advisory and its end.
     let worn_args = ["--days", "0.6", "--seed", "6", "--start-hour", "24"];
     let fault = ["--sensor-fault", "stuck-speed", "--onset-days", "0.3", "-q"];

@@ -14,7 +14,7 @@ use std::process::{Command, Stdio};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use common::serve::{csv_rows, run, Server, BIN, PATIENCE, TOKEN};
+use common::serve::{csv_rows, healthy_day, run, Server, BIN, PATIENCE, TOKEN};
 use common::{batches, env_num, free_port, rss_kb, Dir, Killed};
 use liftwatch_serve::fleet::bus::server_mappings;
 use liftwatch_serve::fleet::gateway::Gateway;
@@ -94,34 +94,6 @@ fn retried<T>(urls: &str, f: impl Fn(&Gateway) -> Result<T, String>) -> T {
             }
         }
     }
-}
-
-/// A simulated log (`days`, `seed`, optional fault) and a model fitted on a healthy day.
-fn data(dir: &Dir, seed: &str) -> (std::path::PathBuf, std::path::PathBuf) {
-    let s = |p: &Path| p.to_str().unwrap().to_string();
-    let healthy = dir.path("healthy");
-    run(&[
-        "simulate",
-        "--out",
-        &s(&healthy),
-        "--days",
-        "1",
-        "--seed",
-        seed,
-        "-q",
-    ]);
-    let model = dir.path("model.json");
-    let (raw, elevator) = (healthy.join("raw.csv"), healthy.join("elevator.toml"));
-    run(&[
-        "fit",
-        "--input",
-        &s(&raw),
-        "--elevator",
-        &s(&elevator),
-        "--out",
-        &s(&model),
-    ]);
-    (raw, model)
 }
 
 /// The trip CSV lines of a batch `liftwatch monitor --rows trip` over `body`.
@@ -208,7 +180,7 @@ fn fleet_run(default_n: f64, default_s: f64, default_speedup: f64) {
     const PARTITIONS: u32 = 12;
     const THREADS: usize = 4;
     let dir = Dir::new("nats-fleet");
-    let (raw, model) = data(&dir, "5");
+    let (raw, model) = healthy_day(&dir, "5");
     let all = batches(&std::fs::read_to_string(&raw).unwrap(), PERIOD_S);
     let per_elevator = ((seconds * speedup / PERIOD_S) as usize).min(all.len());
     let sent: Vec<String> = all[..per_elevator].to_vec();
@@ -433,7 +405,7 @@ fn a_gateway_over_mqtt_reaches_a_worker() {
         return;
     }
     let dir = Dir::new("nats-mqtt");
-    let (raw, model) = data(&dir, "6");
+    let (raw, model) = healthy_day(&dir, "6");
     let s = |p: &Path| p.to_str().unwrap().to_string();
     let mqtt = free_port();
     let (_servers, urls) = cluster(&dir, 1, 4, Some(mqtt));

@@ -28,6 +28,35 @@ pub const TOKEN: &str = "test-token-7f3a";
 /// Longest wait for a server to start or catch up.
 pub const PATIENCE: Duration = Duration::from_secs(60);
 
+/// A healthy simulated day of seed `seed` in `dir/healthy` and a model fitted on its raw log:
+/// (`raw.csv`, `model.json`).
+pub fn healthy_day(dir: &super::Dir, seed: &str) -> (std::path::PathBuf, std::path::PathBuf) {
+    let s = |p: &Path| p.to_str().unwrap().to_string();
+    let healthy = dir.path("healthy");
+    run(&[
+        "simulate",
+        "--out",
+        &s(&healthy),
+        "--days",
+        "1",
+        "--seed",
+        seed,
+        "-q",
+    ]);
+    let model = dir.path("model.json");
+    let (raw, elevator) = (healthy.join("raw.csv"), healthy.join("elevator.toml"));
+    run(&[
+        "fit",
+        "--input",
+        &s(&raw),
+        "--elevator",
+        &s(&elevator),
+        "--out",
+        &s(&model),
+    ]);
+    (raw, model)
+}
+
 pub fn run(args: &[&str]) {
     let out = Command::new(BIN)
         .args(args)

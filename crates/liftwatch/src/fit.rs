@@ -13,7 +13,8 @@
 
 use crate::baseline::BaselineLimits;
 use crate::calibrate::{
-    calibrate, CalibrationReport, CalibrationSettings, ENOUGH_TRAINING_DAYS, ENOUGH_TRAINING_HOURS,
+    calibrate, winding_time_constant, CalibrationReport, CalibrationSettings, ENOUGH_TRAINING_DAYS,
+    ENOUGH_TRAINING_HOURS,
 };
 use crate::elevator::Elevator;
 use crate::error::Result;
@@ -141,8 +142,9 @@ pub fn fit_with(
             100.0 * baseline.measured_percentile
         ));
     }
-    let healthy_trips = trip_evidence(&hybrid, &features.rows);
-    let mut calibrated = calibrate(&healthy_trips, calibration)?;
+    let (tau_s, healthy_trips) =
+        winding_time_constant(&mut |tau| trip_evidence(&hybrid, &features.rows, tau));
+    let mut calibrated = calibrate(&healthy_trips, tau_s, calibration)?;
     calibrated
         .sensor
         .calibrate_load_zero(&series.samples, feature_cfg.moving_threshold_mps);

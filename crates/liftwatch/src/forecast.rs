@@ -562,7 +562,7 @@ mod tests {
             xtr: [0.2, 0.0, 0.1],
             rr: 1.0,
             plausible: true,
-            heat: Default::default(),
+            thermal: Default::default(),
         };
         let blocks = MAX_POINTS + 30;
         for k in 0..blocks * BLOCK_TRIPS as usize {

@@ -206,6 +206,7 @@ pub(crate) mod tests {
             a_l: f64::NAN,
             a,
             d2v: f64::NAN,
+            d2u: f64::NAN,
             voltage: 0.0,
             floor: f64::NAN,
             phase: if s == 0 {

@@ -228,26 +228,34 @@ pub fn summary(m: &fit::FittedModel, trips: usize, seconds: f64) -> String {
             |z| format!("reads {z:.2} %, checked to ±{:.2} %", m.sensor.load_zero_limit_pct)
         )
     );
-    let heating = &m.risk.heating;
-    let _ = if heating.iter().all(|b| *b == 0.0) {
-        writeln!(
-            s,
-            "winding heating: not shown by this training (taken as none)"
+    let w = &m.risk.winding;
+    let heating = if w.steady_rise() > 0.0 {
+        format!(
+            "time constant {:.0} min, Kd +{:.1} ± {:.1} % at a steady full-load force",
+            w.tau_s / 60.0,
+            100.0 * w.steady_rise(),
+            100.0 * w.beta_se[liftwatch::risk::HEAT_LAG],
         )
     } else {
-        let se = m.risk.heating_se;
-        writeln!(
-            s,
-            "winding heating: Kd +{:.1} % at a steady full-load force (lags of {:.0} and {:.0} min: {:+.1} ± {:.1} %, {:+.1} ± {:.1} %), taken out of every trip",
-            100.0 * heating.iter().sum::<f64>(),
-            liftwatch::risk::WINDING_TAUS_S[0] / 60.0,
-            liftwatch::risk::WINDING_TAUS_S[1] / 60.0,
-            100.0 * heating[0],
-            100.0 * se[0],
-            100.0 * heating[1],
-            100.0 * se[1],
-        )
+        "no heating shown".to_string()
     };
+    let (swing, peak) = w.ambient_swing();
+    let daily = if swing > 0.0 {
+        format!(
+            "daily swing ±{:.1} % peaking at {:02.0}:{:02.0}",
+            100.0 * swing,
+            peak.trunc(),
+            (peak.fract() * 60.0).trunc()
+        )
+    } else {
+        "no daily swing shown".to_string()
+    };
+    let taken = if w.identified() {
+        "taken out of every trip"
+    } else {
+        "taken as none"
+    };
+    let _ = writeln!(s, "winding: {heating}; {daily}; {taken}");
     let _ = writeln!(
         s,
         "healthy scales: σ_U {:.2} V, σ_F {:.0} N; risk thresholds: advisory {:.3}, alarm {:.3}",

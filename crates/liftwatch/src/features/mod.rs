@@ -204,6 +204,10 @@ pub struct FeatureRow {
     /// (|Δ²v|/8), the weight of the sample in the fit and the evidence
     /// ([`crate::model::train::interpolation_weight_of`]).
     pub d2v: f64,
+    /// Δ²U: the second difference of the measured voltage over the same neighbours (V), NaN
+    /// without both: the voltage reading's own interpolation error (|Δ²U|/8), largest where
+    /// the drive's force changes (the brake lift, the jerk phases) and so with the load.
+    pub d2u: f64,
     /// U: measured motor voltage (V).
     pub voltage: f64,
     /// Floor indicator (1-based), NaN when missing: the car's position for the rope imbalance.

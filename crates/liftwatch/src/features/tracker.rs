@@ -270,9 +270,12 @@ impl FeatureTracker {
         let a_l = accel::load_path(&self.cfg, &c, held_ref, lambda);
         let phase = accel::phase(&c, a_v);
         let a = accel::fuse(&self.cfg, &c, phase, lambda, a_v, a_l);
-        let d2v = match (p, n) {
-            (Some(p), Some(n)) => p.v - 2.0 * c.v + n.v,
-            _ => f64::NAN,
+        let (d2v, d2u) = match (p, n) {
+            (Some(p), Some(n)) => (
+                p.v - 2.0 * c.v + n.v,
+                p.voltage - 2.0 * c.voltage + n.voltage,
+            ),
+            _ => (f64::NAN, f64::NAN),
         };
         FeatureRow {
             time: c.time,
@@ -283,6 +286,7 @@ impl FeatureTracker {
             a_l,
             a,
             d2v,
+            d2u,
             voltage: c.voltage,
             floor: c.floor,
             phase,

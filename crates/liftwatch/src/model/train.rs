@@ -234,8 +234,9 @@ pub const MIN_TRIPS: usize = 6;
 /// own ≈1 Hz clock, so the speed at a voltage instant is interpolated, and between samples
 /// that interpolation errs by up to |Δ²v|/8 (the curvature of v over one step). Through the
 /// back-EMF term that is an extra voltage error of about Ke·|Δ²v|/8, tens of volts in a jerk
-/// phase against a volt of sensor noise. Weights w = σ²/(σ² + (Ke·Δ²v/8)²), with σ and Ke
-/// from the prior (`sigma_v`, `ke_v_s_per_m`), give those rows the little trust they deserve.
+/// phase against a volt of sensor noise; the voltage reading itself errs by |Δ²U|/8 where the
+/// drive's force changes. Weights w = σ²/(σ² + (Ke·Δ²v/8)² + (Δ²U/8)²), with σ and Ke from
+/// the prior (`sigma_v`, `ke_v_s_per_m`), give those rows the little trust they deserve.
 /// Deviation from the paper, which weighs all moving samples alike.
 ///
 /// # Errors
@@ -269,9 +270,13 @@ pub fn observations_weighted(
     let mut bins: std::collections::BTreeMap<i64, (f64, f64, f64)> =
         std::collections::BTreeMap::new();
     let mut rest_voltages = Vec::new();
-    for (i, r) in rows.iter().enumerate().filter(|(_, r)| ok(r)) {
+    for r in rows.iter().filter(|r| ok(r)) {
         if r.s != 0 {
-            let w = interpolation_weight(rows, i, ke_v_s_per_m, sigma_v);
+            let w = if ke_v_s_per_m == 0.0 {
+                1.0
+            } else {
+                interpolation_weight_of(r, ke_v_s_per_m, sigma_v)
+            };
             let q = PhysParams::relative_height(r.floor, floors);
             moving.push(Obs {
                 s: r.s,
@@ -355,28 +360,19 @@ pub fn observations_weighted(
     })
 }
 
-/// The weight σ²/(σ² + (Ke·Δ²v/8)²) of row `i`: see [`observations`].
-pub fn interpolation_weight(rows: &[FeatureRow], i: usize, ke: f64, sigma: f64) -> f64 {
-    if ke == 0.0 || i == 0 || i + 1 >= rows.len() {
-        return 1.0;
-    }
-    let (a, b, c) = (rows[i - 1].v, rows[i].v, rows[i + 1].v);
-    interpolation_weight_of(a - 2.0 * b + c, ke, sigma)
-}
-
 /// Voltage noise σ of the interpolation weights of moving samples, as a share of the rated
 /// voltage: 0.5 %, about the noise of a drive's 1 Hz voltage reading.
 pub const INTERPOLATION_NOISE_SHARE: f64 = 0.005;
 
-/// The interpolation weight of a moving sample whose speed has the second difference `d2v`
-/// over its neighbours (m/s): σ²/(σ² + (Ke·Δ²v/8)²); 1 when `d2v` is not finite. The one
-/// formula of the fit's observations and the monitor's evidence.
-pub fn interpolation_weight_of(d2v: f64, ke: f64, sigma: f64) -> f64 {
-    if !d2v.is_finite() {
-        return 1.0;
-    }
-    let e = ke * d2v / 8.0;
-    sigma * sigma / (sigma * sigma + e * e)
+/// The interpolation weight of moving sample `x`: σ²/(σ² + (Ke·Δ²v/8)² + (Δ²U/8)²), the
+/// noise over the noise plus what linear interpolation between two readings can err by, the
+/// speed's (through the back-EMF) and the voltage reading's own, each as if the other's
+/// clock were exact; a second difference that is not finite adds nothing. The one formula of
+/// the fit's observations and the monitor's evidence.
+pub fn interpolation_weight_of(x: &FeatureRow, ke: f64, sigma: f64) -> f64 {
+    let e = |d2: f64| if d2.is_finite() { d2 / 8.0 } else { 0.0 };
+    let (ev, eu) = (ke * e(x.d2v), e(x.d2u));
+    sigma * sigma / (sigma * sigma + ev * ev + eu * eu)
 }
 
 /// Fits θ and the network to training observations.

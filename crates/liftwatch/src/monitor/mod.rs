@@ -235,10 +235,11 @@ pub struct MonitorState {
     /// Residual sums of the trip in progress; states written before it start empty.
     #[serde(default)]
     trip_sums: TripSums,
-    /// The winding's heating ([`Heating`]); states written before it was kept start with a
-    /// winding at ambient.
+    /// The winding's temperature state ([`Heating`]); states written before it was kept (or
+    /// with the fixed lags of older models, `heating`, not read) start with a winding at
+    /// ambient.
     #[serde(default)]
-    heating: Heating,
+    winding: Heating,
     /// Samples seen.
     pub samples: u64,
     /// Time of the last sample seen (s), NaN before the first: input at or before it was
@@ -382,8 +383,8 @@ pub struct Monitor {
     model: FittedModel,
     /// [`friction_reference`] of the model, computed once.
     friction: (f64, f64),
-    /// [`heating_reference`] of the model, computed once.
-    heating_force: f64,
+    /// [`heating_reference`] of the model and its winding's τ, computed once.
+    thermal: (f64, f64),
     cache: PredictionCache,
     st: MonitorState,
     /// The aligned step (s): the model's, or alignment's default for a model written before
@@ -407,7 +408,7 @@ impl Monitor {
             baseline: Baseline::default(),
             episode_mode: FaultMode::Unknown,
             trip_sums: TripSums::default(),
-            heating: Heating::default(),
+            winding: Heating::default(),
             samples: 0,
             last_time: f64::NAN,
             trips: 0,
@@ -421,7 +422,7 @@ impl Monitor {
         Monitor {
             model: model.clone(),
             friction: friction_reference(&model.hybrid),
-            heating_force: heating_reference(&model.hybrid),
+            thermal: (heating_reference(&model.hybrid), model.risk.winding.tau_s),
             cache: PredictionCache::default(),
             st,
             step_s: model_step(model),
@@ -449,7 +450,7 @@ impl Monitor {
         Ok(Monitor {
             model: model.clone(),
             friction: friction_reference(&model.hybrid),
-            heating_force: heating_reference(&model.hybrid),
+            thermal: (heating_reference(&model.hybrid), model.risk.winding.tau_s),
             cache: PredictionCache::default(),
             st: state,
             step_s: model_step(model),
@@ -556,7 +557,7 @@ impl Monitor {
             st.trip = TripAccumulator::default();
             st.open_trip = x.trip;
         }
-        let heating = st.heating.advance_row(self.heating_force, x, pred.as_ref());
+        let heating = st.winding.advance_row(self.thermal, x, pred.as_ref());
         if let (Some(p), true) = (pred, x.s != 0 && x.trip.is_some()) {
             st.trip.push(model, self.friction, x, (&p, &res), heating);
         }
@@ -599,7 +600,7 @@ impl Monitor {
             return;
         };
         // The risk stage and the drift history see the trip without the winding's heating.
-        let ev = ev.without_heating(&self.model.risk.heating);
+        let ev = ev.without_heating(&self.model.risk.winding.beta);
         if st.operation.serving_backlog(t.start_time) {
             // Just back from an outage (or the rescue run of a stuck car): not machine
             // evidence, as crate::operation::OUTAGE_BACKLOG_S says why.

@@ -6,17 +6,21 @@
 //! ```text
 //! x_motor = φ(s)·Kd·s·F_pred    x_brake = φ(s)·Kd·F_c·1[s = −1 or decel]    x_fric = φ(s)·Kd·(F_c + c·|v|)
 //! per trip: mean e_U, mean e_F, mean w·x·xᵀ, mean w·x·r_U, mean w·r_U²
-//!           w = σ²/(σ² + (Ke·Δ²v/8)²), the fit's interpolation weight of the sample
+//!           w = σ²/(σ² + (Ke·Δ²v/8)² + (Δ²U/8)²), the fit's interpolation weight of the sample
 //!
-//! winding heating (healthy, predicted), two lags k of time constants τ_k (20 and 90 min):
-//!   H_k ← e^(−Δt/τ_k)·H_k + (1 − e^(−Δt/τ_k))·(F_pred/F_ref)²
-//!   x_heat,k = x_motor·H_k               the voltage of Kd·(1 + Σ β_k·H_k): copper's
-//!                                        resistance follows the copper losses I²R ∝ F²
-//!                                        through the winding's thermal lag
+//! winding temperature (healthy, predicted): a first-order lag of the copper losses with the
+//! winding's time constant τ (identified per elevator, [`crate::calibrate`]) and the daily
+//! cycle of the machine room around it:
+//!   H ← e^(−Δt/τ)·H + (1 − e^(−Δt/τ))·(F_pred/F_ref)²
+//!   basis b = (H, cos ωt, sin ωt),  ω = 2π/day
+//!   x_heat,k = x_motor·b_k                the voltage of Kd·(1 + Σ β_k·b_k): copper's
+//!                                        resistance follows its temperature, the losses
+//!                                        I²R ∝ F² through the winding's thermal lag plus the
+//!                                        ambient's daily swing
 //!   per trip: mean x·x_heat,k, mean x_heat,k·x_heat,l, mean x_heat,k·r_U
 //! ```
 //!
-//! The heating coefficients β_k are identified on the healthy trips beside the signatures
+//! The coefficients β_k are identified on the healthy trips beside the signatures
 //! ([`crate::calibrate`]) and taken out of every trip before any decision
 //! ([`TripEvidence::without_heating`]): a busy hour warms the winding and raises Kd by a few
 //! per cent, and a motor signature that does not know it sees a fault in the morning rush.
@@ -54,17 +58,17 @@ pub struct TripEvidence {
     pub rr: f64,
     /// False when a sensor plausibility check failed: the trip is not machine evidence.
     pub plausible: bool,
-    /// The trip's share of the winding-heating regressor x_heat; zero in evidence written
-    /// before it was kept, which then carries no heating.
+    /// The trip's share of the winding-temperature regressors x_heat; zero in evidence
+    /// written before they were kept (or with another basis), which then carries no heating.
     #[serde(default)]
-    pub heat: HeatEvidence,
+    pub thermal: HeatEvidence,
 }
 
-/// A trip's means of the heating regressors x_heat,k = x_motor·H_k against the signatures,
-/// each other and r_U.
+/// A trip's means of the winding-temperature regressors x_heat,k = x_motor·b_k against the
+/// signatures, each other and r_U.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct HeatEvidence {
-    /// Mean of x_m·x_heat,k per lag k and signature m (V²).
+    /// Mean of x_m·x_heat,k per basis term k and signature m (V²).
     pub xh: [[f64; N_MODES]; N_HEAT],
     /// Mean of x_heat,k·x_heat,l (V²).
     pub hh: [[f64; N_HEAT]; N_HEAT],
@@ -85,7 +89,7 @@ impl TripEvidence {
         if beta.iter().all(|b| *b == 0.0) {
             return t;
         }
-        let h = &self.heat;
+        let h = &self.thermal;
         let mut rr = self.rr;
         for k in 0..N_HEAT {
             for m in 0..N_MODES {
@@ -94,7 +98,7 @@ impl TripEvidence {
             rr -= 2.0 * beta[k] * h.hr[k];
             for l in 0..N_HEAT {
                 rr += beta[k] * h.hh[k][l] * beta[l];
-                t.heat.hr[k] -= beta[l] * h.hh[k][l];
+                t.thermal.hr[k] -= beta[l] * h.hh[k][l];
             }
         }
         t.rr = rr.max(0.0);
@@ -152,17 +156,64 @@ pub fn signature(
     out
 }
 
-/// Number of thermal lags of the heating basis.
-pub const N_HEAT: usize = 2;
+/// Regressors of the winding-temperature basis: the lag H of the copper losses and the two
+/// phases of the daily ambient cycle.
+pub const N_HEAT: usize = 3;
 
-/// Time constants of the heating basis (s): 20 and 90 min, either side of the 30-60 min of
-/// traction machines (MODEL.md). A winding's own first-order lag lies between two lags of
-/// shorter and longer constant, and a weighted sum of the two follows it closely, so the
-/// calibration identifies the weights (β_k) instead of assuming one constant: with a single
-/// lag of 45 min, a 40-floor car whose winding had another constant kept a few per cent of
-/// unexplained Kd at its busy hours, enough for twelve false motor advisories in the
-/// evaluation's 3-day trainings.
-pub const WINDING_TAUS_S: [f64; N_HEAT] = [1200.0, 5400.0];
+/// Index of the lag H in the basis; the daily harmonic follows it.
+pub const HEAT_LAG: usize = 0;
+
+/// The winding time constant a model without an identified one assumes (s): 45 min, the
+/// middle of the 30-60 min of traction machines (MODEL.md).
+pub const DEFAULT_WINDING_TAU_S: f64 = 2700.0;
+
+/// Length of the ambient cycle (s): the machine room warms and cools with the day.
+pub const AMBIENT_PERIOD_S: f64 = 86_400.0;
+
+/// The winding's healthy temperature response, identified by the calibration.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Winding {
+    /// τ: thermal time constant of the lag H (s).
+    pub tau_s: f64,
+    /// β_k: relative change of Kd per unit of each basis term (H, cos ωt, sin ωt):
+    /// Kd·(1 + Σ β_k·b_k). β_H is the rise at a steady force F_ref (copper: 0.39 %/K times the
+    /// winding's rise there in K); (β_cos, β_sin) the machine room's daily swing. 0 when the
+    /// training did not show it (and in models fitted before it was kept, which then take no
+    /// heating out).
+    pub beta: [f64; N_HEAT],
+    /// Standard errors of β on the training (1); 0 when β was not identified.
+    pub beta_se: [f64; N_HEAT],
+}
+
+impl Default for Winding {
+    fn default() -> Self {
+        Winding {
+            tau_s: DEFAULT_WINDING_TAU_S,
+            beta: [0.0; N_HEAT],
+            beta_se: [0.0; N_HEAT],
+        }
+    }
+}
+
+impl Winding {
+    /// The steady rise of Kd at a continuous force F_ref (1).
+    pub fn steady_rise(&self) -> f64 {
+        self.beta[HEAT_LAG]
+    }
+
+    /// Half the peak-to-peak daily swing of Kd (1) and the hour of its peak (0-24, in the
+    /// timestamps' own clock).
+    pub fn ambient_swing(&self) -> (f64, f64) {
+        let (c, s) = (self.beta[HEAT_LAG + 1], self.beta[HEAT_LAG + 2]);
+        let hour = s.atan2(c).rem_euclid(std::f64::consts::TAU) / std::f64::consts::TAU * 24.0;
+        (c.hypot(s), hour)
+    }
+
+    /// True when the training showed any of it.
+    pub fn identified(&self) -> bool {
+        self.beta.iter().any(|b| *b != 0.0)
+    }
+}
 
 /// The force the heating is measured in (N): the full-load motoring force (1 − q)·M_r·g of
 /// the elevator description, at which a machine's rated winding rise is quoted. H = 1 is a
@@ -172,44 +223,45 @@ pub fn heating_reference(model: &HybridModel) -> f64 {
     ((1.0 - e.counterweight_ratio()) * e.rated_load_kg * G).max(1.0)
 }
 
-/// The winding-heating state H_k: first-order lags of (F_pred/F_ref)² with the time constants
-/// [`WINDING_TAUS_S`]; no input while the car stands (the drive's losses at rest are small).
-/// The default is a winding at ambient; its first sample finds it long cold, so a monitor
-/// started on a moving car takes that car's load as the winding's.
+/// The winding-temperature state: H, a first-order lag of (F_pred/F_ref)² with the winding's
+/// time constant τ (no input while the car stands: the drive's losses at rest are small), and
+/// the basis b = (H, cos ωt, sin ωt) it gives each sample. The default is a winding at
+/// ambient; its first sample finds it long cold, so a monitor started on a moving car takes
+/// that car's load as the winding's.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Heating {
-    /// H_k (1).
-    #[serde(with = "exact::array")]
-    pub h: [f64; N_HEAT],
+    /// H (1).
+    #[serde(with = "exact")]
+    pub h: f64,
     /// Time of the last sample (s), none before the first.
     pub last: Option<f64>,
 }
 
 impl Heating {
     /// Advances to `time` with the squared relative force `load` = (F/F_ref)² held since the
-    /// last sample, and returns H. Time that runs backwards or is not finite holds H.
-    pub fn advance(&mut self, time: f64, load: f64) -> [f64; N_HEAT] {
+    /// last sample through a lag of `tau_s`, and returns the basis at `time`. Time that runs
+    /// backwards or is not finite holds H.
+    pub fn advance(&mut self, tau_s: f64, time: f64, load: f64) -> [f64; N_HEAT] {
         if !time.is_finite() {
-            return self.h;
+            return [self.h, 0.0, 0.0];
         }
         let dt = self.last.map_or(f64::INFINITY, |last| time - last);
         if dt > 0.0 && load.is_finite() {
-            for (h, tau) in self.h.iter_mut().zip(WINDING_TAUS_S) {
-                let keep = (-dt / tau).exp();
-                *h = keep * *h + (1.0 - keep) * load;
-            }
+            let keep = (-dt / tau_s).exp();
+            self.h = keep * self.h + (1.0 - keep) * load;
         }
         if dt > 0.0 {
             self.last = Some(time);
         }
-        self.h
+        let phase = std::f64::consts::TAU * (time / AMBIENT_PERIOD_S).fract();
+        [self.h, phase.cos(), phase.sin()]
     }
 
     /// Advances over feature row `x` with its prediction (if any): the force of a moving
-    /// sample heats, a standing car cools. Returns H.
+    /// sample heats, a standing car cools. Returns the basis.
     pub fn advance_row(
         &mut self,
-        f_ref: f64,
+        (f_ref, tau_s): (f64, f64),
         x: &FeatureRow,
         p: Option<&Prediction>,
     ) -> [f64; N_HEAT] {
@@ -217,7 +269,7 @@ impl Heating {
             Some(p) if x.s != 0 && p.f_pred.is_finite() => (p.f_pred / f_ref).powi(2),
             _ => 0.0,
         };
-        self.advance(x.time, load)
+        self.advance(tau_s, x.time, load)
     }
 }
 
@@ -243,11 +295,11 @@ pub struct TripAccumulator {
     #[serde(with = "exact")]
     rr: f64,
     #[serde(default)]
-    heat: HeatEvidence,
+    thermal: HeatEvidence,
 }
 
 impl TripAccumulator {
-    /// Adds one moving sample with its prediction, residuals and winding heating H_k
+    /// Adds one moving sample with its prediction, residuals and winding-temperature basis
     /// ([`Heating`]); standstill samples and samples without a voltage residual are ignored.
     /// `friction` is [`friction_reference`] of `model`.
     pub fn push(
@@ -277,10 +329,11 @@ impl TripAccumulator {
             self.n_f += 1;
         }
         // Weighted as in the fit: a sample whose instant interpolation blurs (trip edges, jerk
-        // phases) carries a voltage error of Ke·|Δ²v|/8 that moves with the phase of the
-        // channels' clocks over days, and the evidence gives it the little trust the fit does.
+        // phases) carries a voltage error of Ke·|Δ²v|/8 and |Δ²U|/8 that moves with the phase of
+        // the channels' clocks over days, and the evidence gives it the little trust the fit
+        // does.
         let w = interpolation_weight_of(
-            x.d2v,
+            x,
             model.parameters.ke,
             INTERPOLATION_NOISE_SHARE * model.elevator.rated_voltage(),
         );
@@ -296,10 +349,10 @@ impl TripAccumulator {
         }
         for (l, xl) in x_heat.iter().enumerate() {
             for i in 0..N_MODES {
-                self.heat.xh[l][i] += w * sig[i] * xl;
+                self.thermal.xh[l][i] += w * sig[i] * xl;
             }
-            self.heat.hr[l] += w * xl * r.r_u;
-            for (hh, xq) in self.heat.hh[l].iter_mut().zip(&x_heat) {
+            self.thermal.hr[l] += w * xl * r.r_u;
+            for (hh, xq) in self.thermal.hh[l].iter_mut().zip(&x_heat) {
                 *hh += w * xl * xq;
             }
         }
@@ -339,24 +392,25 @@ impl TripAccumulator {
             xtr: a.xtr.map(|v| v / n),
             rr: a.rr / n,
             plausible,
-            heat: HeatEvidence {
-                xh: a.heat.xh.map(|row| row.map(|v| v / n)),
-                hh: a.heat.hh.map(|row| row.map(|v| v / n)),
-                hr: a.heat.hr.map(|v| v / n),
+            thermal: HeatEvidence {
+                xh: a.thermal.xh.map(|row| row.map(|v| v / n)),
+                hh: a.thermal.hh.map(|row| row.map(|v| v / n)),
+                hr: a.thermal.hr.map(|v| v / n),
             },
         })
     }
 }
 
 /// The healthy trips of a training set, for [`crate::calibrate::calibrate`]: residuals of `rows`
-/// with `model`, summed per trip (trips as marked by [`FeatureRow::trip`]). Plausibility of
-/// the raw sensors is not checked here: training data are healthy by assumption.
-pub fn trip_evidence(model: &HybridModel, rows: &[FeatureRow]) -> Vec<TripEvidence> {
+/// with `model`, summed per trip (trips as marked by [`FeatureRow::trip`]), the winding's lag
+/// at `tau_s`. Plausibility of the raw sensors is not checked here: training data are healthy
+/// by assumption.
+pub fn trip_evidence(model: &HybridModel, rows: &[FeatureRow], tau_s: f64) -> Vec<TripEvidence> {
     let mut out = Vec::new();
     let mut acc = TripAccumulator::default();
     let mut cache = PredictionCache::default();
     let friction = friction_reference(model);
-    let f_ref = heating_reference(model);
+    let thermal = (heating_reference(model), tau_s);
     let mut heating = Heating::default();
     let mut open: Option<u32> = None;
     for x in rows {
@@ -367,10 +421,10 @@ pub fn trip_evidence(model: &HybridModel, rows: &[FeatureRow]) -> Vec<TripEviden
         if x.s != 0 && crate::residual::applicable(x) {
             let p = cache.predict(model, x);
             let r = Residuals::from_prediction(model, x, &p);
-            let h = heating.advance_row(f_ref, x, Some(&p));
+            let h = heating.advance_row(thermal, x, Some(&p));
             acc.push(model, friction, x, (&p, &r), h);
         } else {
-            heating.advance_row(f_ref, x, None);
+            heating.advance_row(thermal, x, None);
         }
     }
     out.extend(acc.finish(true));
@@ -378,7 +432,7 @@ pub fn trip_evidence(model: &HybridModel, rows: &[FeatureRow]) -> Vec<TripEviden
 }
 
 /// The symmetric 3×3 matrix of a packed upper triangle (00, 01, 02, 11, 12, 22).
-pub(super) fn unpack(p: &[f64; 6]) -> [[f64; 3]; 3] {
+pub(crate) fn unpack(p: &[f64; 6]) -> [[f64; 3]; 3] {
     [[p[0], p[1], p[2]], [p[1], p[3], p[4]], [p[2], p[4], p[5]]]
 }
 

@@ -70,11 +70,11 @@ mod evidence;
 pub mod sequential;
 mod tracker;
 
-pub(crate) use evidence::spd_inverse;
 pub use evidence::{
     friction_reference, heating_reference, signature, trip_evidence, HeatEvidence, Heating,
-    TripAccumulator, TripEvidence, N_HEAT, WINDING_TAUS_S,
+    TripAccumulator, TripEvidence, Winding, DEFAULT_WINDING_TAU_S, HEAT_LAG, N_HEAT,
 };
+pub(crate) use evidence::{spd_inverse, unpack};
 pub use sequential::{Decision, Sequential, SequentialConfig};
 pub(crate) use tracker::excess;
 pub use tracker::{Accumulator, RiskTracker, Rls, TripAssessment};
@@ -139,24 +139,26 @@ pub struct RiskConfig {
     pub release_ratio: f64,
     /// A mode is named only when its scaled risk is this many times the runner-up's.
     pub dominance: f64,
-    /// β_k: the healthy heating of the winding, the relative rise of Kd per unit of each
-    /// lag H_k of [`Heating`] (Kd·(1 + Σ β_k·H_k)); their sum is the rise at a steady force
-    /// F_ref (copper: 0.39 %/K times the winding's rise there in K). Every trip's evidence is
-    /// taken without it before the risk stage sees it. 0 when the training did not show it
-    /// (and in models fitted before it was kept).
+    /// The winding's healthy temperature response ([`Winding`]): every trip's evidence is
+    /// taken without it before the risk stage sees it. Models fitted before it was kept (whose
+    /// `heating` of fixed lags is not read) take none out.
     #[serde(default)]
-    pub heating: [f64; N_HEAT],
-    /// Standard errors of β_k on the training (1); 0 when β was not identified.
-    #[serde(default)]
-    pub heating_se: [f64; N_HEAT],
+    pub winding: Winding,
     /// The sequential decision ([`sequential`]); absent in models fitted before it existed,
     /// which then decide from R alone.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub sequential: Option<SequentialConfig>,
 }
 
-/// Largest heating coefficient β a model may carry (see [`RiskConfig::heating`]).
+/// Largest heating coefficient β a model may carry (see [`Winding::beta`]).
 pub const MAX_HEATING: f64 = 10.0;
+
+/// Range of the winding time constant the calibration searches and a model may carry (s):
+/// 5 min to 8 h, well beyond the 30-60 min of traction machines (MODEL.md) on both sides, so
+/// that the search never pins an unusual machine to an end.
+pub const MIN_WINDING_TAU_S: f64 = 300.0;
+/// See [`MIN_WINDING_TAU_S`].
+pub const MAX_WINDING_TAU_S: f64 = 28_800.0;
 
 impl Default for RiskConfig {
     fn default() -> Self {
@@ -181,8 +183,7 @@ impl Default for RiskConfig {
             advisory_modes: [0.0; N_MODES],
             release_ratio: 0.5,
             dominance: 1.5,
-            heating: [0.0; N_HEAT],
-            heating_se: [0.0; N_HEAT],
+            winding: Winding::default(),
             sequential: None,
         };
         cfg.advisory = cfg.advisory_floor();
@@ -280,11 +281,18 @@ impl RiskConfig {
         }
         range("risk.prior_s2", self.prior_s2, 1e-300, 1e30)?;
         // Copper gains 0.39 %/K; β = 10 would be a winding 2,500 K over ambient at H = 1.
+        let w = &self.winding;
+        range(
+            "risk.winding.tau_s",
+            w.tau_s,
+            MIN_WINDING_TAU_S,
+            MAX_WINDING_TAU_S,
+        )?;
         for k in 0..N_HEAT {
-            range("risk.heating", self.heating[k], -MAX_HEATING, MAX_HEATING)?;
-            range("risk.heating_se", self.heating_se[k], 0.0, 1e3)?;
+            range("risk.winding.beta", w.beta[k], -MAX_HEATING, MAX_HEATING)?;
+            range("risk.winding.beta_se", w.beta_se[k], 0.0, 1e3)?;
         }
-        range("risk.heating", self.heating.iter().sum(), 0.0, MAX_HEATING)?;
+        range("risk.winding.beta", w.steady_rise(), 0.0, MAX_HEATING)?;
         range("risk.dominance", self.dominance, 1.0, 1e3)?;
         if let Some(seq) = &self.sequential {
             seq.validate().map_err(|why| Error::InvalidConfig {

@@ -274,6 +274,11 @@ impl SequentialConfig {
         out
     }
 
+    /// A trip's score per mode: mean(x_m·r_U) − (mean(x·xᵀ)·θ0)_m.
+    pub(crate) fn trip_score(&self, t: &TripEvidence) -> [f64; N_MODES] {
+        self.score(t).0
+    }
+
     /// Score and information of one trip per mode.
     fn score(&self, t: &TripEvidence) -> ([f64; N_MODES], [f64; N_MODES]) {
         let xtx = unpack(&t.xtx);

@@ -20,12 +20,12 @@ pub(crate) fn synthetic_trips(
     t0: f64,
     fault: Injection,
 ) -> Vec<TripEvidence> {
-    heated_trips(model, seed, days, t0, fault, 0.0)
+    heated_trips(model, seed, days, t0, fault, 0.0, DEFAULT_WINDING_TAU_S)
 }
 
 /// [`synthetic_trips`] on a winding that heats: Kd·(1 + β·H) with H a first-order lag of
-/// 45 min of (F/F_ref)² (none of [`WINDING_TAUS_S`]), the evidence carrying the monitor's
-/// [`Heating`] basis.
+/// 45 min of (F/F_ref)² and a daily swing of ±3 %, the evidence carrying the monitor's
+/// [`Heating`] basis with a lag of `basis_tau_s`.
 pub(crate) fn heated_trips(
     model: &HybridModel,
     seed: u64,
@@ -33,6 +33,7 @@ pub(crate) fn heated_trips(
     t0: f64,
     fault: Injection,
     beta: f64,
+    basis_tau_s: f64,
 ) -> Vec<TripEvidence> {
     let mut heating = Heating::default();
     let mut winding = (0.0f64, f64::NAN);
@@ -69,7 +70,7 @@ pub(crate) fn heated_trips(
             x.phase = phase;
             let p = model.predict(&x);
             let sig = signature(model, friction, &x, p.f_pred);
-            let h = heating.advance_row(f_ref, &x, Some(&p));
+            let h = heating.advance_row((f_ref, basis_tau_s), &x, Some(&p));
             let keep = (-(time - winding.1) / 2700.0).exp();
             let keep = if keep.is_finite() { keep } else { 0.0 };
             winding = (
@@ -91,34 +92,34 @@ pub(crate) fn heated_trips(
 
 #[test]
 fn the_winding_heats_and_cools_with_its_time_constant() {
+    let tau = 2400.0;
     let mut h = Heating::default();
-    // A car running at the reference force: after τ_k lag k holds 1 − 1/e of it.
-    h.advance(0.0, 1.0);
+    h.advance(tau, 0.0, 1.0);
     assert_eq!(
-        h.h, [1.0; N_HEAT],
+        h.h, 1.0,
         "the first sample finds a winding long at its load"
     );
-    for (k, tau) in WINDING_TAUS_S.into_iter().enumerate() {
-        let mut cold = Heating::default();
-        cold.advance(0.0, 0.0);
-        for s in 1..=tau as u32 {
-            cold.advance(f64::from(s), 1.0);
-        }
-        assert!(
-            (cold.h[k] - (1.0 - (-1.0f64).exp())).abs() < 1e-3,
-            "{:?}",
-            cold.h
-        );
-        // Standing still it cools by e in τ_k.
-        let warm = cold.h[k];
-        cold.advance(2.0 * tau, 0.0);
-        assert!((cold.h[k] - warm / std::f64::consts::E).abs() < 1e-9);
+    // A car running at the reference force: after τ the lag holds 1 − 1/e of it.
+    let mut cold = Heating::default();
+    cold.advance(tau, 0.0, 0.0);
+    for s in 1..=tau as u32 {
+        cold.advance(tau, f64::from(s), 1.0);
     }
+    assert!((cold.h - (1.0 - (-1.0f64).exp())).abs() < 1e-3, "{cold:?}");
+    // Standing still it cools by e in τ.
+    let warm = cold.h;
+    cold.advance(tau, 2.0 * tau, 0.0);
+    assert!((cold.h - warm / std::f64::consts::E).abs() < 1e-9);
+    // The daily harmonic is the phase of the day: at 06:00 the sine's peak.
+    let b = cold.advance(tau, 10.0 * 86_400.0 + 6.0 * 3600.0, 0.0);
+    assert!(
+        b[HEAT_LAG + 1].abs() < 1e-9 && (b[HEAT_LAG + 2] - 1.0).abs() < 1e-9,
+        "{b:?}"
+    );
     // Time that runs backwards or is not finite changes nothing.
-    let mut cold = h;
     let before = cold;
-    cold.advance(0.0, 5.0);
-    cold.advance(f64::NAN, 5.0);
+    cold.advance(tau, 0.0, 5.0);
+    cold.advance(tau, f64::NAN, 5.0);
     assert_eq!(cold, before);
 }
 

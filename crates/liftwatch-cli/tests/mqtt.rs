@@ -61,6 +61,10 @@ fn telemetry_through_a_broker_gives_the_rows_of_a_batch_run_and_events_come_out(
         eprintln!("SKIPPED: {MOSQUITTO} is not installed (apt-get install mosquitto)");
         return;
     }
+    if !Path::new(MOSQUITTO_SUB).exists() {
+        eprintln!("SKIPPED: {MOSQUITTO_SUB} is not installed (apt-get install mosquitto-clients)");
+        return;
+    }
     let dir = Dir::new("serve-mqtt");
     let s = |p: &Path| p.to_str().unwrap().to_string();
     let worn = dir.path("worn");

@@ -826,10 +826,26 @@ impl HourWander {
                 }
             }
         }
+        if omega.iter().flatten().any(|x| !x.is_finite()) {
+            return Self::none();
+        }
         // Moments of a few dozen hours need not make a covariance: the correlations are
-        // shrunk towards none until they do.
-        let mut chol = cholesky3(&omega);
-        while chol.is_none() {
+        // shrunk towards none until they do (a diagonal Ω always does; 200 shrinks take
+        // them below 1e-19 of their start).
+        // A signature that does not wander (a zero diagonal) gets a negligible ridge, so that
+        // the factor of the others exists.
+        let ridge = 1e-12 * (0..N_MODES).map(|a| omega[a][a]).fold(0.0, f64::max);
+        for _ in 0..200 {
+            let mut m = SquareMatrix::zeros(N_MODES);
+            for a in 0..N_MODES {
+                for b in 0..N_MODES {
+                    *m.at(a, b) = omega[a][b] + if a == b { ridge } else { 0.0 };
+                }
+            }
+            if let Some(l) = m.cholesky() {
+                let chol = std::array::from_fn(|a| std::array::from_fn(|b| l.get(a, b)));
+                return HourWander { chol };
+            }
             for a in 0..N_MODES {
                 for b in 0..N_MODES {
                     if a != b {
@@ -837,12 +853,8 @@ impl HourWander {
                     }
                 }
             }
-            chol = cholesky3(&omega);
         }
-        let Some(chol) = chol else {
-            return Self::none();
-        };
-        HourWander { chol }
+        Self::none()
     }
 
     /// A new hour's level δ ~ N(0, Ω).
@@ -860,26 +872,6 @@ impl HourWander {
         }
         out
     }
-}
-
-/// The lower Cholesky factor of a symmetric 3×3 matrix that may be singular (a zero row
-/// stays zero); `None` when it is not positive semi-definite.
-fn cholesky3(a: &[[f64; N_MODES]; N_MODES]) -> Option<[[f64; N_MODES]; N_MODES]> {
-    let mut l = [[0.0; N_MODES]; N_MODES];
-    for i in 0..N_MODES {
-        for j in 0..=i {
-            let s: f64 = a[i][j] - (0..j).map(|k| l[i][k] * l[j][k]).sum::<f64>();
-            if i == j {
-                if s < -1e-12 * (1.0 + a[i][i].abs()) {
-                    return None;
-                }
-                l[i][i] = s.max(0.0).sqrt();
-            } else {
-                l[i][j] = if l[j][j] > 0.0 { s / l[j][j] } else { 0.0 };
-            }
-        }
-    }
-    Some(l)
 }
 
 fn bootstrap(

@@ -1280,6 +1280,35 @@ mod tests {
     }
 
     #[test]
+    fn a_ramps_drift_is_where_it_stands_now_not_its_windows_mean() {
+        // Kd grows by 1 % a day from day 1. Where the change is held, the drift the decision
+        // reports is the ramp's level at the last trip within 2 SE; the window's mean, which
+        // it reported before, sits at about half of it.
+        let m = test_model();
+        let cfg = calibrated(&m).risk;
+        let onset = 86_400.0;
+        let rate = 0.01 / 86_400.0;
+        let trips = synthetic_trips(&m, 19, 12.0, 0.0, &|t, x| {
+            (t - onset).max(0.0) * rate * x[MOTOR]
+        });
+        let a = run(&cfg, &trips);
+        let (d, last) = (a.last().unwrap().decision, trips.last().unwrap());
+        assert!(d.ratio >= 1.0, "the ramp must be held: {d:?}");
+        let truth = (last.start - onset) * rate;
+        assert!(
+            (d.drift[MOTOR] - truth).abs() < 2.0 * d.drift_se[MOTOR],
+            "Kd drift {} ± {} against {truth}",
+            d.drift[MOTOR],
+            d.drift_se[MOTOR]
+        );
+        assert!(
+            d.drift[MOTOR] > 0.75 * truth,
+            "Kd drift {} lags the ramp's {truth}",
+            d.drift[MOTOR]
+        );
+    }
+
+    #[test]
     fn a_healthy_level_off_a_short_trainings_own_is_not_a_change() {
         // The three days of a short training sit at Kd −1.5 %, 0 and +1.5 % of their mean
         // (traffic mix, the ambient), beside the daily ±3 % thermal swing. The days after it

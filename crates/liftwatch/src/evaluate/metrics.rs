@@ -8,6 +8,7 @@
 //! false/year  = false signals/(exposure days/365.25)      before the onset, or the whole healthy run
 //! flicker     = threshold alarm activations, per trip, before it holds PERSISTENT_TRIPS trips
 //! drift z     = (reported − true drift of the true mode)/its reported SE, at detection
+//!               (and at the first alarm after the onset: `drift_z_alarm`)
 //!               Kd % = 100·(kd_factor − 1), friction % = 100·(friction_factor − 1), brake N
 //! ```
 //!
@@ -57,6 +58,10 @@ pub struct MethodResult {
     /// reported standard error, at detection.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub drift_z: Option<f64>,
+    /// The same at the first alarm after the onset, when the run reached one: the drift an
+    /// engineer reads when the work is due, later on a ramp than the detection.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub drift_z_alarm: Option<f64>,
     /// liftwatch only: every event of the run (level changes, mode named, evidence), so that
     /// a false advisory or a wrong mode in the table can be read back in `evaluation.json`.
     #[serde(skip_serializing_if = "Vec::is_empty")]
@@ -103,6 +108,7 @@ impl Metrics<'_> {
             flicker: None,
             persistent_delay_days: None,
             drift_z: None,
+            drift_z_alarm: None,
             events: Vec::new(),
         }
     }
@@ -145,6 +151,12 @@ impl Metrics<'_> {
                     && (m != FaultMode::Sensor || at.and_then(|e| e.channel) == self.channel)
             });
             r.drift_z = at.and_then(|e| self.drift_z(e));
+            r.drift_z_alarm = self
+                .sink
+                .events
+                .iter()
+                .find(|e| e.level == Level::Alarm && !self.before_onset(e.time))
+                .and_then(|e| self.drift_z(e));
         }
         r.events = self.sink.events.clone();
         r

@@ -25,6 +25,10 @@ use async_nats::HeaderMap;
 use bytes::Bytes;
 use futures_util::StreamExt;
 
+/// How long [`Bus::states`] waits for the checkpoints of the whole fleet: a bucket of 10,000
+/// streams through one consumer in seconds; past this the cluster is not answering.
+pub const STATES_PATIENCE: Duration = Duration::from_secs(30);
+
 /// The telemetry stream.
 pub const TELEMETRY_STREAM: &str = "LIFTWATCH_TELEMETRY";
 /// The outputs stream.
@@ -603,16 +607,39 @@ impl Bus {
     ///
     /// # Errors
     /// One line from the server.
+    ///
+    /// One ordered consumer delivers the last value of every key, up to the last one pending
+    /// when it began (`delta` 0), instead of a request per key: 10,000 checkpoints read by
+    /// single `get`s did not come back within a minute. The read gives up after
+    /// [`STATES_PATIENCE`].
     pub async fn states(&self) -> Result<HashMap<String, Bytes>, String> {
-        let mut keys = self.state.keys().await.map_err(|e| line("state", e))?;
-        let mut out = HashMap::new();
-        while let Some(k) = keys.next().await {
-            let k = k.map_err(|e| line("state", e))?;
-            if let Some(v) = self.state.get(&k).await.map_err(|e| line("state", e))? {
-                out.insert(k, v);
+        let read = async {
+            let status = self.state.status().await.map_err(|e| line("state", e))?;
+            let mut out = HashMap::new();
+            if status.info.state.messages == 0 {
+                return Ok(out);
             }
-        }
-        Ok(out)
+            let mut watch = self
+                .state
+                .watch_with_history(">")
+                .await
+                .map_err(|e| line("state", e))?;
+            while let Some(e) = watch.next().await {
+                let e = e.map_err(|e| line("state", e))?;
+                if e.operation == kv::Operation::Put {
+                    out.insert(e.key, e.value);
+                } else {
+                    out.remove(&e.key);
+                }
+                if e.delta == 0 {
+                    break;
+                }
+            }
+            Ok(out)
+        };
+        tokio::time::timeout(STATES_PATIENCE, read)
+            .await
+            .unwrap_or_else(|_| Err("state: timed out reading the checkpoints".to_string()))
     }
 
     /// Flushes what the client has buffered.

@@ -614,9 +614,15 @@ impl Bus {
     /// [`STATES_PATIENCE`].
     pub async fn states(&self) -> Result<HashMap<String, Bytes>, String> {
         let read = async {
-            let status = self.state.status().await.map_err(|e| line("state", e))?;
+            // Fresh from the server: `Store::status` answers from the bucket's cached info.
+            let info = self
+                .state
+                .stream
+                .get_info()
+                .await
+                .map_err(|e| line("state", e))?;
             let mut out = HashMap::new();
-            if status.info.state.messages == 0 {
+            if info.state.messages == 0 {
                 return Ok(out);
             }
             let mut watch = self

@@ -39,7 +39,7 @@ use crate::mode::N_MODES;
 use crate::risk::sequential::{DAY_S, N_SIZES};
 use crate::risk::{
     excess, unpack, RiskConfig, RiskTracker, Rls, SequentialConfig, TripEvidence, Winding,
-    HEAT_LAG, MAX_HEATING, MAX_WINDING_TAU_S, MIN_WINDING_TAU_S, N_HEAT,
+    HEAT_LAG, MAX_HEATING, MAX_WINDING_TAU_S, MIN_WINDING_TAU_S, N_HEAT, PACKED_DIAG,
 };
 use crate::rng::{moving_blocks, BlockStart, Rng};
 use crate::sensor::SensorLimits;
@@ -408,10 +408,10 @@ fn heating_regression(
     let design = |t: &TripEvidence| -> (SquareMatrix, Vec<f64>) {
         let mut a = SquareMatrix::zeros(k);
         let mut b = vec![0.0; k];
-        let xtx = [[0, 1, 2], [1, 3, 4], [2, 4, 5]];
+        let xtx = unpack(&t.xtx);
         for i in 0..N_MODES {
             for j in 0..N_MODES {
-                *a.at(i, j) = t.xtx[xtx[i][j]];
+                *a.at(i, j) = xtx[i][j];
             }
             b[i] = t.xtr[i];
         }
@@ -719,9 +719,6 @@ struct HourWander {
     chol: [[f64; N_MODES]; N_MODES],
 }
 
-/// Index of x_m·x_m in a packed x·xᵀ.
-const DIAG: [usize; N_MODES] = [0, 3, 5];
-
 impl HourWander {
     fn none() -> Self {
         HourWander {
@@ -776,9 +773,9 @@ impl HourWander {
         let (mut ss, mut si) = ([0.0; N_MODES], [0.0; N_MODES]);
         for (r, (sc, w)) in ranges.iter().zip(&sums) {
             for m in 0..N_MODES {
-                let level = sc[m] / w[DIAG[m]];
+                let level = sc[m] / w[PACKED_DIAG[m]];
                 for t in &trips[r.clone()] {
-                    let info = t.xtx[DIAG[m]];
+                    let info = t.xtx[PACKED_DIAG[m]];
                     ss[m] += (seq.trip_score(t)[m] - level * info).powi(2);
                     si[m] += info;
                 }
@@ -793,7 +790,7 @@ impl HourWander {
         });
         let cells: Vec<([f64; N_MODES], [[f64; N_MODES]; N_MODES])> = sums
             .iter()
-            .filter(|(_, w)| DIAG.iter().all(|&k| w[k] > 0.0))
+            .filter(|(_, w)| PACKED_DIAG.iter().all(|&k| w[k] > 0.0))
             .map(|(sc, w)| {
                 let x = unpack(w);
                 let y = std::array::from_fn(|m| sc[m] / x[m][m]);
@@ -868,7 +865,7 @@ impl HourWander {
     fn shift(&self, t: &TripEvidence, offset: &[f64; N_MODES]) -> TripEvidence {
         let mut out = t.clone();
         for m in 0..N_MODES {
-            out.xtr[m] += t.xtx[DIAG[m]] * offset[m];
+            out.xtr[m] += t.xtx[PACKED_DIAG[m]] * offset[m];
         }
         out
     }

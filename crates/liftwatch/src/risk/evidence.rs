@@ -432,6 +432,10 @@ pub fn trip_evidence(model: &HybridModel, rows: &[FeatureRow], tau_s: f64) -> Ve
 }
 
 /// The symmetric 3×3 matrix of a packed upper triangle (00, 01, 02, 11, 12, 22).
+/// Where the diagonal (i, i) of a packed upper triangle lies: the entries [`unpack`] puts on
+/// the diagonal.
+pub(crate) const PACKED_DIAG: [usize; 3] = [0, 3, 5];
+
 pub(crate) fn unpack(p: &[f64; 6]) -> [[f64; 3]; 3] {
     [[p[0], p[1], p[2]], [p[1], p[3], p[4]], [p[2], p[4], p[5]]]
 }

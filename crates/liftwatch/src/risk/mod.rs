@@ -74,7 +74,7 @@ pub use evidence::{
     friction_reference, heating_reference, signature, trip_evidence, HeatEvidence, Heating,
     TripAccumulator, TripEvidence, Winding, DEFAULT_WINDING_TAU_S, HEAT_LAG, N_HEAT,
 };
-pub(crate) use evidence::{spd_inverse, unpack};
+pub(crate) use evidence::{spd_inverse, unpack, PACKED_DIAG};
 pub use sequential::{Decision, Sequential, SequentialConfig};
 pub(crate) use tracker::excess;
 pub use tracker::{Accumulator, RiskTracker, Rls, TripAssessment};

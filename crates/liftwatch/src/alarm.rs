@@ -123,6 +123,13 @@ pub struct Evidence {
     /// The same for the friction signature.
     #[serde(default)]
     pub llr_friction: f64,
+    /// The same for the load cell's zero, the isolation's `sensor` hypothesis.
+    #[serde(default)]
+    pub llr_load: f64,
+    /// The load cell's zero offset that window shows (% of the rated load, + reading high);
+    /// null without a load reference in the model.
+    #[serde(default)]
+    pub load_offset_pct: f64,
 }
 
 impl Evidence {
@@ -152,6 +159,8 @@ impl Evidence {
             llr_motor: a.decision.isolation[MOTOR],
             llr_brake: a.decision.isolation[BRAKE],
             llr_friction: a.decision.isolation[FRICTION],
+            llr_load: a.decision.isolation_load,
+            load_offset_pct: 100.0 * a.decision.load_offset,
         }
     }
 }

@@ -952,7 +952,7 @@ mod tests {
     use super::*;
     use crate::model::HybridModel;
     use crate::residual::tests::test_model;
-    use crate::risk::tests::synthetic_trips;
+    use crate::risk::tests::{offset_load_trips, synthetic_trips};
     use crate::risk::{TripAssessment, DEFAULT_WINDING_TAU_S};
     use crate::rng::Rng;
 
@@ -1274,6 +1274,36 @@ mod tests {
                 .all(|(a, _)| a.decision.ratio < 1.0),
             "crossed before the step"
         );
+    }
+
+    #[test]
+    fn a_drifting_load_cell_is_named_sensor_not_motor() {
+        // The cell's zero creeps up by 4 % of the rated load a day from day 1: every expected
+        // force grows by Q·(g + a)·Δλ, the voltage residual looks like the drive's. The
+        // decision names the cell, with its offset, and the drive's step of the test above
+        // stays `motor` (the isolation weighs both).
+        let m = test_model();
+        let cfg = calibrated(&m).risk;
+        let onset = 86_400.0;
+        let rate = 0.04 / 86_400.0;
+        let trips = offset_load_trips(&m, 23, 4.0, &|t| rate * (t - onset).max(0.0));
+        let a = run(&cfg, &trips);
+        let (k, d) = a
+            .iter()
+            .zip(&trips)
+            .enumerate()
+            .find(|(_, (a, t))| t.start > onset && a.decision.ratio >= 1.0)
+            .map(|(k, (a, _))| (k, a.decision))
+            .expect("the drift must be decided");
+        assert_eq!(d.mode, crate::mode::FaultMode::Sensor, "{d:?}");
+        let now = rate * (trips[k].start - onset);
+        assert!(
+            d.load_offset > 0.0 && d.load_offset < 1.5 * now,
+            "offset {} against {now} now",
+            d.load_offset
+        );
+        let odds = crate::risk::sequential::ISOLATION_ODDS.ln();
+        assert!(d.isolation_load > d.isolation[MOTOR] + odds, "{d:?}");
     }
 
     #[test]

@@ -563,6 +563,7 @@ mod tests {
             rr: 1.0,
             plausible: true,
             thermal: Default::default(),
+            load: Default::default(),
         };
         let blocks = MAX_POINTS + 30;
         for k in 0..blocks * BLOCK_TRIPS as usize {

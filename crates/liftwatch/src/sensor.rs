@@ -71,6 +71,21 @@ const ZERO_LIMIT_MARGIN: f64 = 1.5;
 /// typical load cell, below which a shift is not a fault worth a visit.
 const ZERO_LIMIT_FLOOR_PCT: f64 = 1.0;
 
+/// The spread of the empty car's parked readings is never taken below this (percent of rated
+/// load): a minute of readings of a cell with 1 % steps resolves a few hundredths of a per
+/// cent, and a spread the training measured below it would make every hundredth a shift.
+const ZERO_SD_FLOOR_PCT: f64 = 0.05;
+
+/// Parkings the zero check keeps as witnesses for the risk stage's isolation (about two days
+/// of a busy car, a week of a quiet one): the load cell's zero, read directly, when the
+/// machine evidence cannot tell a drifting cell from the drive.
+const ZERO_WITNESSES: usize = 64;
+
+/// The parked readings since a window began decide for or against the load cell's zero when
+/// their mean lies this many of its standard errors beyond the line (see the monitor's
+/// witness): four, which a healthy cell passes about once in 30,000 decisions.
+pub const ZERO_WITNESS_Z: f64 = 4.0;
+
 /// Seconds of a standstill before its voltage counts as the rest reading: a drive drops the
 /// brake and de-energises (or settles its holding current) within a second or two of
 /// levelling, and a low-pass voltage sensor has followed within a few of its time constants.
@@ -221,6 +236,10 @@ pub struct SensorLimits {
     /// Largest plausible deviation of the empty car's reading from `load_zero_pct` (percent).
     #[serde(default = "default_zero_limit")]
     pub load_zero_limit_pct: f64,
+    /// Healthy spread of the empty car's parked readings (percent; robust, at least
+    /// [`ZERO_SD_FLOOR_PCT`]); 0 in models written before it was kept (no witness then).
+    #[serde(default)]
+    pub load_zero_sd_pct: f64,
     /// The healthy rest reading of the voltage ([`RestVoltage`], V); `None` when the training
     /// had too few stops, or for models written before the check.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -311,6 +330,7 @@ impl Default for SensorLimits {
             implausible_fraction: 0.5,
             load_zero_pct: None,
             load_zero_limit_pct: ZERO_LIMIT_FLOOR_PCT,
+            load_zero_sd_pct: 0.0,
             rest_voltage_v: None,
             rest_voltage_allowance_v: 0.0,
             rest_voltage_sd_v: 0.0,
@@ -336,6 +356,8 @@ impl SensorLimits {
         let (reference, limit) = healthy_range(&readings, ZERO_LIMIT_FLOOR_PCT);
         self.load_zero_pct = Some(reference);
         self.load_zero_limit_pct = limit;
+        self.load_zero_sd_pct =
+            crate::stats::robust_sigma(readings.iter().copied()).max(ZERO_SD_FLOOR_PCT);
     }
 
     /// Calibrates the rest-voltage check on healthy samples (`thr` the motion threshold,
@@ -406,6 +428,10 @@ pub struct SensorCheck {
     /// The empty car's reading has left its healthy range.
     #[serde(default)]
     zero_drift: bool,
+    /// The last [`ZERO_WITNESSES`] parkings: when each ended and its reading's deviation from
+    /// the healthy zero (percent).
+    #[serde(default)]
+    zero_witnesses: std::collections::VecDeque<(StateF64, StateF64)>,
     /// The stop in progress, for the rest-voltage check.
     #[serde(default)]
     rest: RestVoltage,
@@ -443,6 +469,7 @@ impl SensorCheck {
             floor: f64::NAN,
             parking: Parking::new(),
             zero_drift: false,
+            zero_witnesses: std::collections::VecDeque::new(),
             rest: RestVoltage::default(),
             rest_g: [0.0; 2],
             missing_channel: None,
@@ -467,7 +494,31 @@ impl SensorCheck {
         let reading = self.parking.push(x, thr);
         if let (Some(z), Some(reference)) = (reading, cfg.load_zero_pct) {
             self.zero_drift = (z - reference).abs() > cfg.load_zero_limit_pct;
+            if self.zero_witnesses.len() == ZERO_WITNESSES {
+                self.zero_witnesses.pop_front();
+            }
+            self.zero_witnesses
+                .push_back((StateF64(x.time), StateF64(z - reference)));
         }
+    }
+
+    /// The empty car's parked readings that ended after `since`: their mean deviation from the
+    /// healthy zero and its standard error from the healthy spread (percent); `None` when
+    /// there were none or the model has no spread to judge them by.
+    pub fn load_zero_shift(&self, cfg: &SensorLimits, since: f64) -> Option<(f64, f64)> {
+        // NaN or 0 (a model written before the spread was kept): no witness.
+        if cfg.load_zero_sd_pct.is_nan() || cfg.load_zero_sd_pct <= 0.0 {
+            return None;
+        }
+        let (sum, n) = self
+            .zero_witnesses
+            .iter()
+            .filter(|(t, _)| t.0 >= since)
+            .fold((0.0, 0u32), |(s, n), (_, d)| (s + d.0, n + 1));
+        (n > 0).then(|| {
+            let n = f64::from(n);
+            (sum / n, cfg.load_zero_sd_pct / n.sqrt())
+        })
     }
 
     /// Takes one sample into the rest-voltage check: a stop that ends moves its two CUSUMs.
@@ -707,6 +758,36 @@ mod tests {
         // A cell 2 % off (1.5 % rounds to 2 % half the time) is a sensor fault at once.
         assert_eq!(watch(2.0), (true, true));
         assert_eq!(watch(-2.0), (true, true));
+    }
+
+    #[test]
+    fn the_parked_readings_witness_a_zero_shift_below_the_limit() {
+        let mut limits = SensorLimits::default();
+        limits.calibrate_load_zero(&day(0.0, 0.0, 1), 0.05);
+        assert!(limits.load_zero_sd_pct >= ZERO_SD_FLOOR_PCT);
+        let witness = |offset: f64, since: f64| {
+            let mut check = SensorCheck::new();
+            for x in day(86_400.0, offset, 2) {
+                check.sample(&x, &limits, 0.05);
+            }
+            (
+                check.load_zero_drift(),
+                check.load_zero_shift(&limits, since),
+            )
+        };
+        // 0.4 % is inside the limit, no verdict, but the day's parkings read it plainly.
+        let (flagged, shift) = witness(0.4, 0.0);
+        let (pct, se) = shift.expect("24 parkings");
+        assert!(!flagged);
+        assert!(
+            (pct - 0.4).abs() < 0.1 && pct >= ZERO_WITNESS_Z * se,
+            "{pct} ± {se} %"
+        );
+        let (_, shift) = witness(0.0, 0.0);
+        let (pct, se) = shift.expect("24 parkings");
+        assert!(pct.abs() < ZERO_WITNESS_Z * se, "healthy: {pct} ± {se} %");
+        // Only the parkings after `since` are witnesses.
+        assert_eq!(witness(0.4, 3.0 * 86_400.0).1, None);
     }
 
     /// `stops` stops of 1 Hz samples: 15 s at speed, then a standstill of 8-60 s. At rest the

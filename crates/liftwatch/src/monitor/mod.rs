@@ -54,6 +54,12 @@ use rows::TripSums;
 pub use rows::{RowWriter, TimeFormat, TripRowWriter, TripSummary, CSV_HEADER, TRIP_CSV_HEADER};
 
 // Indices of the per-mode arrays, in the order of `crate::mode::MACHINE_MODES`.
+/// The parked readings witness a load cell's zero when they show at least this share of the
+/// offset the changed trips show alone: a drift that began with the window shows about half
+/// of its window's mean offset at parkings early in the window, and a shift of a few
+/// hundredths of a per cent beside a drive fault is not the drive fault's explanation.
+const WITNESS_SHARE: f64 = 0.25;
+
 const MOTOR: usize = FaultMode::Motor as usize;
 const BRAKE: usize = FaultMode::Brake as usize;
 const FRICTION: usize = FaultMode::Friction as usize;
@@ -617,15 +623,41 @@ impl Monitor {
     fn pinn_row(&mut self, x: &FeatureRow, res: &Residuals, before: Level) -> MonitorRow {
         let cfg = &self.model.risk;
         let st = &mut self.st;
-        let a = st.risk.last;
+        let mut a = st.risk.last;
+        // The parked zero check is the load cell's witness (its readings since the changed
+        // trips began): a zero that moved the way and by a good part of what the trips show
+        // makes the change the cell's, whatever the machine signatures could not tell; one
+        // that plainly stayed takes the cell's name away from a change the trips gave it.
+        let d = &mut a.decision;
+        if let (true, Some((pct, se))) = (
+            d.load_offset.is_finite(),
+            st.sensor
+                .load_zero_shift(&self.model.sensor, d.window_start),
+        ) {
+            let need = WITNESS_SHARE * 100.0 * d.load_offset.abs();
+            let shown = pct * d.load_offset.signum();
+            let z = crate::sensor::ZERO_WITNESS_Z * se;
+            if shown >= need.max(z) {
+                d.mode = FaultMode::Sensor;
+            } else if d.mode == FaultMode::Sensor && shown <= need - z {
+                d.mode = d.machine_mode;
+            }
+        }
         st.alarm.update_machine(a.risk, a.decision.ratio, cfg);
         let level = st.alarm.level();
         let mut event = None;
         if update_episode(&mut st.episode_mode, before, &st.alarm, &a, cfg) {
             let evidence =
                 Evidence::from_assessment(&a, self.friction.0, st.risk.trips, st.implausible_trips);
+            // A `sensor` the channel checks do not hold is the isolation's: the load cell's
+            // zero explained the machine evidence best.
             let channel = (st.episode_mode == FaultMode::Sensor)
-                .then(|| st.sensor.channel(&self.model.sensor, x.time))
+                .then(|| {
+                    st.sensor
+                        .channel(&self.model.sensor, x.time)
+                        .or((a.decision.mode == FaultMode::Sensor)
+                            .then_some(crate::ingest::Signal::Load))
+                })
                 .flatten();
             event = Some(Event {
                 time: x.time,

@@ -18,6 +18,12 @@
 //!                                        I²R ∝ F² through the winding's thermal lag plus the
 //!                                        ambient's daily swing
 //!   per trip: mean x·x_heat,k, mean x_heat,k·x_heat,l, mean x_heat,k·r_U
+//!
+//! the load cell's zero, the one sensor fault that moves the machine evidence:
+//!   x_load = φ(s)·Kd·s·Q·(g + a)          ∂U_pred/∂λ: a reading high by Δλ (share of the
+//!                                        rated load Q) adds Q·(g + a)·Δλ to the expected force,
+//!                                        so r_U = −x_load·Δλ
+//!   per trip: mean x_load·x, mean x_load², mean x_load·x_heat,k, mean x_load·r_U
 //! ```
 //!
 //! The coefficients β_k are identified on the healthy trips beside the signatures
@@ -62,6 +68,25 @@ pub struct TripEvidence {
     /// written before they were kept (or with another basis), which then carries no heating.
     #[serde(default)]
     pub thermal: HeatEvidence,
+    /// The trip's share of the load-cell zero's regressor x_load; zero in evidence written
+    /// before it was kept, which then cannot tell a load-cell zero from the drive.
+    #[serde(default)]
+    pub load: LoadEvidence,
+}
+
+/// A trip's means of the load-cell zero's regressor x_load = ∂U_pred/∂λ against the
+/// signatures, itself, the heating basis and r_U: the alternative the isolation weighs
+/// against the machine modes ([`crate::risk::sequential`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct LoadEvidence {
+    /// Mean of x_load·x_m per signature m (V² per unit λ).
+    pub xm: [f64; N_MODES],
+    /// Mean of x_load² (V² per unit λ²).
+    pub ll: f64,
+    /// Mean of x_load·x_heat,k (V² per unit λ).
+    pub xh: [f64; N_HEAT],
+    /// Mean of x_load·r_U (V² per unit λ).
+    pub lr: f64,
 }
 
 /// A trip's means of the winding-temperature regressors x_heat,k = x_motor·b_k against the
@@ -96,6 +121,7 @@ impl TripEvidence {
                 t.xtr[m] -= beta[k] * h.xh[k][m];
             }
             rr -= 2.0 * beta[k] * h.hr[k];
+            t.load.lr -= beta[k] * self.load.xh[k];
             for l in 0..N_HEAT {
                 rr += beta[k] * h.hh[k][l] * beta[l];
                 t.thermal.hr[k] -= beta[l] * h.hh[k][l];
@@ -134,6 +160,15 @@ pub fn friction_reference(model: &HybridModel) -> (f64, f64) {
         p.f_c.max(0.5 * typical.f_c),
         p.c_visc.max(0.5 * typical.c_visc),
     )
+}
+
+/// The load-cell zero's regressor of one moving sample: ∂U_pred/∂λ = φ(s)·Kd·s·Q·(g + a)
+/// (V per unit of λ, the load as a share of the rated load Q): the inertia and the weight of
+/// a load that the cell reads but the car does not carry. The network's share of ∂U/∂λ is
+/// left out: it corrects the physics by a few per cent.
+pub fn load_signature(model: &HybridModel, x: &FeatureRow) -> f64 {
+    let p = &model.parameters;
+    p.phi(x.s) * p.kd * f64::from(x.s) * model.elevator.rated_load_kg * (G + x.a)
 }
 
 /// The fault-signature regressors of one moving sample (V per unit coefficient);
@@ -296,6 +331,8 @@ pub struct TripAccumulator {
     rr: f64,
     #[serde(default)]
     thermal: HeatEvidence,
+    #[serde(default)]
+    load: LoadEvidence,
 }
 
 impl TripAccumulator {
@@ -356,6 +393,15 @@ impl TripAccumulator {
                 *hh += w * xl * xq;
             }
         }
+        let xl = load_signature(model, x);
+        for m in 0..N_MODES {
+            self.load.xm[m] += w * xl * sig[m];
+        }
+        for (k, xh) in x_heat.iter().enumerate() {
+            self.load.xh[k] += w * xl * xh;
+        }
+        self.load.ll += w * xl * xl;
+        self.load.lr += w * xl * r.r_u;
         self.rr += w * r.r_u * r.r_u;
     }
 
@@ -397,6 +443,12 @@ impl TripAccumulator {
                 hh: a.thermal.hh.map(|row| row.map(|v| v / n)),
                 hr: a.thermal.hr.map(|v| v / n),
             },
+            load: LoadEvidence {
+                xm: a.load.xm.map(|v| v / n),
+                ll: a.load.ll / n,
+                xh: a.load.xh.map(|v| v / n),
+                lr: a.load.lr / n,
+            },
         })
     }
 }
@@ -431,11 +483,11 @@ pub fn trip_evidence(model: &HybridModel, rows: &[FeatureRow], tau_s: f64) -> Ve
     out
 }
 
-/// The symmetric 3×3 matrix of a packed upper triangle (00, 01, 02, 11, 12, 22).
 /// Where the diagonal (i, i) of a packed upper triangle lies: the entries [`unpack`] puts on
 /// the diagonal.
 pub(crate) const PACKED_DIAG: [usize; 3] = [0, 3, 5];
 
+/// The symmetric 3×3 matrix of a packed upper triangle (00, 01, 02, 11, 12, 22).
 pub(crate) fn unpack(p: &[f64; 6]) -> [[f64; 3]; 3] {
     [[p[0], p[1], p[2]], [p[1], p[3], p[4]], [p[2], p[4], p[5]]]
 }

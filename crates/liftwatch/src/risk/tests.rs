@@ -23,6 +23,26 @@ pub(crate) fn synthetic_trips(
     heated_trips(model, seed, days, t0, fault, 0.0, DEFAULT_WINDING_TAU_S)
 }
 
+/// [`synthetic_trips`] of a healthy machine whose load cell reads `offset(t)` (share of the
+/// rated load) above the load the car carries.
+pub(crate) fn offset_load_trips(
+    model: &HybridModel,
+    seed: u64,
+    days: f64,
+    offset: &dyn Fn(f64) -> f64,
+) -> Vec<TripEvidence> {
+    trips_of(
+        model,
+        seed,
+        days,
+        0.0,
+        &|_, _| 0.0,
+        offset,
+        0.0,
+        DEFAULT_WINDING_TAU_S,
+    )
+}
+
 /// [`synthetic_trips`] on a winding that heats: Kd·(1 + β·H) with H a first-order lag of
 /// 45 min of (F/F_ref)² and a daily swing of ±3 %, the evidence carrying the monitor's
 /// [`Heating`] basis with a lag of `basis_tau_s`.
@@ -32,6 +52,22 @@ pub(crate) fn heated_trips(
     days: f64,
     t0: f64,
     fault: Injection,
+    beta: f64,
+    basis_tau_s: f64,
+) -> Vec<TripEvidence> {
+    trips_of(model, seed, days, t0, fault, &|_| 0.0, beta, basis_tau_s)
+}
+
+/// The one generator behind the helpers above: `load_offset(t)` is added to the load reading
+/// after the voltage was made from the load the car carries.
+#[allow(clippy::too_many_arguments)]
+fn trips_of(
+    model: &HybridModel,
+    seed: u64,
+    days: f64,
+    t0: f64,
+    fault: Injection,
+    load_offset: &dyn Fn(f64) -> f64,
     beta: f64,
     basis_tau_s: f64,
 ) -> Vec<TripEvidence> {
@@ -80,6 +116,7 @@ pub(crate) fn heated_trips(
             let daily = 0.03 * (2.0 * std::f64::consts::PI * time / 86_400.0).sin();
             let thermal = (daily + beta * winding.0) * sig[MOTOR];
             x.voltage += thermal + fault(time, &sig) + sigma * rng.normal();
+            x.lambda += load_offset(time);
             let p = model.predict(&x);
             let r = Residuals::from_prediction(model, &x, &p);
             acc.push(model, friction, &x, (&p, &r), h);

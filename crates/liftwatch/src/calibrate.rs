@@ -701,7 +701,8 @@ fn mean_plus_3sd(x: &[f64]) -> f64 {
 ///   y_c,m = Σ score_m / Σ info_m            the hour's level, as each CUSUM sees it
 ///   V_c[m][n] = s_m·s_n·W_c[m][n]/(W_c[m][m]·W_c[n][n])   its noise, s²_m the trips'
 ///                                            variance within their hour
-/// Ω = mean y_c·y_cᵀ − mean V_c, diagonal floored at 0, correlations within ±0.95
+/// Ω = Σ n_c·(y_c·y_cᵀ − V_c) / Σ n_c       n_c the hour's trips; diagonal floored at 0,
+///                                            correlations within ±0.95
 /// bootstrap: each hour of a drawn block is moved by a new level δ ~ N(0, Ω):
 ///   x_m·r_U += info_m·δ_m
 /// ```
@@ -788,27 +789,34 @@ impl HourWander {
                 seq.s2[m]
             }
         });
-        let cells: Vec<([f64; N_MODES], [[f64; N_MODES]; N_MODES])> = sums
+        let cells: Vec<(f64, [f64; N_MODES], [[f64; N_MODES]; N_MODES])> = sums
             .iter()
-            .filter(|(_, w)| PACKED_DIAG.iter().all(|&k| w[k] > 0.0))
-            .map(|(sc, w)| {
+            .zip(&ranges)
+            .filter(|((_, w), _)| PACKED_DIAG.iter().all(|&k| w[k] > 0.0))
+            .map(|((sc, w), r)| {
                 let x = unpack(w);
                 let y = std::array::from_fn(|m| sc[m] / x[m][m]);
                 let v = std::array::from_fn(|m| {
                     std::array::from_fn(|n| (s2[m] * s2[n]).sqrt() * x[m][n] / (x[m][m] * x[n][n]))
                 });
-                (y, v)
+                (r.len() as f64, y, v)
             })
             .collect();
         if cells.len() < 3 {
             return Self::none();
         }
-        let n = cells.len() as f64;
+        // Weighted by the hour's trips: a CUSUM gains an hour's level once per trip, so the
+        // spread that sets its false alarms is that of the busy hours, where the channels'
+        // interpolation errors are largest too (loaded cars up in the morning). Counting
+        // every hour alike let the quiet hours' small spread stand for the busy ones': on the
+        // evaluation, 12 false advisories with week-long trainings (10 of them the 40-floor
+        // car's 09:00) and 8 with 3-day ones; weighted, 3 and 1.
+        let n: f64 = cells.iter().map(|c| c.0).sum();
         let mut omega = [[0.0; N_MODES]; N_MODES];
-        for (y, v) in &cells {
+        for (k, y, v) in &cells {
             for a in 0..N_MODES {
                 for b in 0..N_MODES {
-                    omega[a][b] += (y[a] * y[b] - v[a][b]) / n;
+                    omega[a][b] += k * (y[a] * y[b] - v[a][b]) / n;
                 }
             }
         }
@@ -1011,11 +1019,6 @@ mod tests {
         };
         let cal = calibrate(&training, DEFAULT_WINDING_TAU_S, &settings).expect("calibrates");
         let got = cal.report.hour_wander[MOTOR];
-        eprintln!(
-            "DBG {:?} {:?}",
-            cal.report.hour_wander,
-            cal.risk.sequential.as_ref().map(|s| s.h)
-        );
         assert!((got / sd - 1.0).abs() < 0.3, "hour wander {got}, true {sd}");
         let month = synthetic_trips(&m, 77, 30.0, 4.0 * 86_400.0, &level(2));
         let seq_max = run(&cal.risk, &month)
@@ -1026,6 +1029,62 @@ mod tests {
         assert!(
             seq_max < 1.0,
             "a new hour's level crossed the motor CUSUM: G/h = {seq_max}"
+        );
+    }
+
+    #[test]
+    fn the_busy_hours_wander_sets_the_thresholds() {
+        // Every other clock hour is busy (four times the trips) and sits at its own Kd
+        // level, ±6 % (sd); the quiet hours do not wander. A CUSUM gains an hour's level once
+        // per trip, so the busy hours' spread is the one the thresholds must expect: weighted
+        // by trips, the measured wander is near the busy hours' own, and a month of new busy
+        // hours stays below the motor threshold (counting every hour alike measures half the
+        // busy hours' variance: 0.71 of their sd, where trips weigh 0.89).
+        let m = test_model();
+        let sd = 0.06;
+        let busy = |t: f64| (t / HOUR_S).floor() as u64 % 2 == 0;
+        let level = |salt: u64| {
+            move |t: f64, x: &[f64; N_MODES]| {
+                let hour = (t / HOUR_S).floor() as u64;
+                let z = Rng::new(hour.wrapping_mul(0x9E37_79B9) ^ salt).normal();
+                if busy(t) {
+                    sd * z * x[MOTOR]
+                } else {
+                    0.0
+                }
+            }
+        };
+        let traffic = |seed: u64, days: f64, t0: f64, salt: u64| {
+            let mut trips = synthetic_trips(&m, seed, days, t0, &level(salt));
+            for k in 1..4 {
+                let extra = synthetic_trips(&m, seed + 1000 * k, days, t0, &level(salt));
+                trips.extend(extra.into_iter().filter(|t| busy(t.start)));
+            }
+            trips.sort_by(|a, b| a.start.total_cmp(&b.start));
+            trips
+        };
+        let settings = CalibrationSettings {
+            years: 5.0,
+            ..CalibrationSettings::default()
+        };
+        let cal = calibrate(&traffic(41, 8.0, 0.0, 1), DEFAULT_WINDING_TAU_S, &settings)
+            .expect("calibrates");
+        // Four fifths of the trips are in busy hours: the trip-weighted variance is 0.8·sd².
+        let got = cal.report.hour_wander[MOTOR];
+        let expected = sd * 0.8f64.sqrt();
+        assert!(
+            (got / expected - 1.0).abs() < 0.12,
+            "hour wander {got}, expected {expected}"
+        );
+        let month = traffic(87, 30.0, 8.0 * 86_400.0, 2);
+        let seq_max = run(&cal.risk, &month)
+            .iter()
+            .filter(|a| a.decision.lead_signature == crate::mode::FaultMode::Motor)
+            .map(|a| a.decision.ratio)
+            .fold(0.0, f64::max);
+        assert!(
+            seq_max < 1.0,
+            "a new busy hour's level crossed the motor CUSUM: G/h = {seq_max}"
         );
     }
 

@@ -299,7 +299,12 @@ impl SensorLimits {
             0.01,
             1000.0,
         )?;
-        check("sensor.load_zero_sd_pct", self.load_zero_sd_pct, 0.0, 1000.0)?;
+        check(
+            "sensor.load_zero_sd_pct",
+            self.load_zero_sd_pct,
+            0.0,
+            1000.0,
+        )?;
         if let Some(u) = self.rest_voltage_v {
             check("sensor.rest_voltage_v", u, -1e4, 1e4)?;
             check(

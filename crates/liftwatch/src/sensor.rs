@@ -500,7 +500,9 @@ impl SensorCheck {
         let reading = self.parking.push(x, thr);
         if let (Some(z), Some(reference)) = (reading, cfg.load_zero_pct) {
             self.zero_drift = (z - reference).abs() > cfg.load_zero_limit_pct;
-            if self.zero_witnesses.len() == ZERO_WITNESSES {
+            // `while`: a state file may hold more than the bound (written by hand, or by a
+            // build with another); it shrinks back at the next parking.
+            while self.zero_witnesses.len() >= ZERO_WITNESSES {
                 self.zero_witnesses.pop_front();
             }
             self.zero_witnesses
@@ -794,6 +796,19 @@ mod tests {
         assert!(pct.abs() < ZERO_WITNESS_Z * se, "healthy: {pct} ± {se} %");
         // Only the parkings after `since` are witnesses.
         assert_eq!(witness(0.4, 3.0 * 86_400.0).1, None);
+        // Three days of parkings keep the last ZERO_WITNESSES, also from an oversized state.
+        let mut check = SensorCheck::new();
+        let stale = (StateF64(0.0), StateF64(5.0));
+        check
+            .zero_witnesses
+            .extend(std::iter::repeat(stale).take(3 * ZERO_WITNESSES));
+        for d in 1..4u32 {
+            for x in day(f64::from(d) * 86_400.0, 0.0, d.into()) {
+                check.sample(&x, &limits, 0.05);
+            }
+        }
+        assert_eq!(check.zero_witnesses.len(), ZERO_WITNESSES);
+        assert!(check.zero_witnesses.iter().all(|(t, _)| t.0 > 86_400.0));
     }
 
     /// `stops` stops of 1 Hz samples: 15 s at speed, then a standstill of 8-60 s. At rest the

@@ -1375,6 +1375,15 @@ mod tests {
             d.drift[BRAKE],
             d.drift_se[BRAKE]
         );
+        // The drive did not change: what the brake leaves of the window reads Kd within
+        // 0.3 % of nothing and of its own 2 SE (the joint fit of all three read +0.85 %,
+        // beside the brake's misfit).
+        assert!(
+            d.drift[MOTOR].abs() < (2.0 * d.drift_se[MOTOR]).min(0.003),
+            "Kd {} ± {}",
+            d.drift[MOTOR],
+            d.drift_se[MOTOR]
+        );
     }
 
     #[test]

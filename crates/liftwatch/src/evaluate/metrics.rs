@@ -10,6 +10,8 @@
 //! drift z     = (reported − true drift of the true mode)/its reported SE, at detection
 //!               (and at the first alarm after the onset: `drift_z_alarm`)
 //!               Kd % = 100·(kd_factor − 1), friction % = 100·(friction_factor − 1), brake N
+//! leak z      = max over the other machine modes of |reported drift|/its SE at detection
+//!               (their truth is no change): a fault of one mode showing as another's
 //! ```
 //!
 //! The true brake drag is the simulator's downward drag; liftwatch's brake signature weighs
@@ -62,6 +64,10 @@ pub struct MethodResult {
     /// engineer reads when the work is due, later on a ramp than the detection.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub drift_z_alarm: Option<f64>,
+    /// liftwatch on machine faults only: the largest |drift|/SE of the other two machine
+    /// modes at detection, whose truth is no change.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub leak_z: Option<f64>,
     /// liftwatch only: every event of the run (level changes, mode named, evidence), so that
     /// a false advisory or a wrong mode in the table can be read back in `evaluation.json`.
     #[serde(skip_serializing_if = "Vec::is_empty")]
@@ -109,6 +115,7 @@ impl Metrics<'_> {
             persistent_delay_days: None,
             drift_z: None,
             drift_z_alarm: None,
+            leak_z: None,
             events: Vec::new(),
         }
     }
@@ -151,6 +158,7 @@ impl Metrics<'_> {
                     && (m != FaultMode::Sensor || at.and_then(|e| e.channel) == self.channel)
             });
             r.drift_z = at.and_then(|e| self.drift_z(e));
+            r.leak_z = at.and_then(|e| self.leak_z(e));
             r.drift_z_alarm = self
                 .sink
                 .events
@@ -160,6 +168,26 @@ impl Metrics<'_> {
         }
         r.events = self.sink.events.clone();
         r
+    }
+
+    /// The largest |drift|/SE of the machine modes other than the true one at the event `e`.
+    fn leak_z(&self, e: &Event) -> Option<f64> {
+        let ev = &e.evidence;
+        let truth = self.truth.filter(|t| t.is_machine())?;
+        [
+            (FaultMode::Motor, ev.kd_drift_pct, ev.kd_drift_se_pct),
+            (
+                FaultMode::Friction,
+                ev.friction_drift_pct,
+                ev.friction_drift_se_pct,
+            ),
+            (FaultMode::Brake, ev.brake_drag_n, ev.brake_drag_se_n),
+        ]
+        .into_iter()
+        .filter(|(m, _, _)| *m != truth)
+        .map(|(_, d, se)| (d / se).abs())
+        .filter(|z| z.is_finite())
+        .reduce(f64::max)
     }
 
     /// (reported − true)/SE of the true machine mode's drift at the event `e`.

@@ -26,7 +26,8 @@
 //!           (all three signatures jointly; W⁻¹·S, the window's mean, when the slope is not
 //!           determined), SE² = (var of θ + β·τ_end)·max s² + wander²;
 //!           the named mode's own drift from its signature alone (the same line, 2×2),
-//!           SE² = var·s²_m + wander²_m
+//!           SE² = var·s²_m + wander²_m; the other two jointly on what it leaves of the
+//!           window's mean, S − W·e_m·S_m/W_mm
 //!                                                   wander: healthy sd between blocks of 50 trips
 //! ```
 //!
@@ -538,6 +539,9 @@ impl Sequential {
         if machine_mode.is_machine() {
             let m = machine_mode as usize;
             (drift[m], drift_se[m]) = alone_drift(cfg, c, m);
+            for (i, d, se) in remainder_drifts(cfg, c, m).into_iter().flatten() {
+                (drift[i], drift_se[i]) = (d, se);
+            }
         }
         Decision {
             ratio: lead.2,
@@ -651,6 +655,35 @@ fn alone_drift(cfg: &SequentialConfig, c: &Cusum, m: usize) -> (f64, f64) {
     } else {
         (f64::NAN, f64::NAN)
     }
+}
+
+/// The drifts of the two other signatures on what the named mode `m` leaves of a window: the
+/// window's mean less `m`'s own mean coefficient, fitted jointly by the other two (standard
+/// errors as [`window_drift`]'s); `None` when their 2×2 system is singular. Under the named
+/// mode nothing else changed, and what the others show here is what the data say beyond it;
+/// the joint fit of all three gave them their share of the named fault's misfit instead
+/// (a brake step read friction −34 % and Kd −11 %).
+fn remainder_drifts(cfg: &SequentialConfig, c: &Cusum, m: usize) -> Option<[(usize, f64, f64); 2]> {
+    let w = unpack(&c.w);
+    if w[m][m].is_nan() || w[m][m] <= 0.0 {
+        return None;
+    }
+    let own = c.s[m] / w[m][m];
+    let (i, j) = match m {
+        0 => (1, 2),
+        1 => (0, 2),
+        _ => (0, 1),
+    };
+    let (ri, rj) = (c.s[i] - w[i][m] * own, c.s[j] - w[j][m] * own);
+    let det = w[i][i] * w[j][j] - w[i][j] * w[i][j];
+    if det.is_nan() || det <= 0.0 {
+        return None;
+    }
+    let di = (w[j][j] * ri - w[i][j] * rj) / det;
+    let dj = (w[i][i] * rj - w[i][j] * ri) / det;
+    let s2 = cfg.s2.iter().fold(0.0f64, |a, &b| a.max(b));
+    let se = |var: f64, k: usize| (s2 * var + cfg.wander[k] * cfg.wander[k]).sqrt();
+    Some([(i, di, se(w[j][j] / det, i)), (j, dj, se(w[i][i] / det, j))])
 }
 
 /// A window whose line needs at least this many days between its first and last trip: a

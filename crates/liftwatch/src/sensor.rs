@@ -510,6 +510,12 @@ impl SensorCheck {
         }
     }
 
+    /// When the newest parking witness ended, as bits (None before the first): it changes
+    /// exactly when the witnesses do.
+    pub fn newest_zero_witness(&self) -> Option<u64> {
+        self.zero_witnesses.back().map(|(t, _)| t.0.to_bits())
+    }
+
     /// The empty car's parked readings that ended after `since`: their mean deviation from the
     /// healthy zero and its standard error from the healthy spread (percent); `None` when
     /// there were none or the model has no spread to judge them by.

@@ -46,23 +46,25 @@ use crate::mode::MACHINE_MODES;
 use crate::operation::{DayUsage, OperationEvent, OperationTracker};
 use crate::output::write_atomic;
 use crate::residual::{PredictionCache, Residuals};
-use crate::risk::{friction_reference, heating_reference, Heating, RiskTracker, TripAccumulator};
+use crate::risk::{
+    friction_reference, heating_reference, Decision, Heating, RiskTracker, TripAccumulator,
+};
 use crate::sample::Sample;
-use crate::sensor::SensorCheck;
+use crate::sensor::{SensorCheck, SensorLimits};
 use rows::TripSums;
 
 pub use rows::{RowWriter, TimeFormat, TripRowWriter, TripSummary, CSV_HEADER, TRIP_CSV_HEADER};
 
 // Indices of the per-mode arrays, in the order of `crate::mode::MACHINE_MODES`.
+const MOTOR: usize = FaultMode::Motor as usize;
+const BRAKE: usize = FaultMode::Brake as usize;
+const FRICTION: usize = FaultMode::Friction as usize;
+
 /// The parked readings witness a load cell's zero when they show at least this share of the
 /// offset the changed trips show alone: a drift that began with the window shows about half
 /// of its window's mean offset at parkings early in the window, and a shift of a few
 /// hundredths of a per cent beside a drive fault is not the drive fault's explanation.
 const WITNESS_SHARE: f64 = 0.25;
-
-const MOTOR: usize = FaultMode::Motor as usize;
-const BRAKE: usize = FaultMode::Brake as usize;
-const FRICTION: usize = FaultMode::Friction as usize;
 
 /// Version of the monitor state document.
 pub const STATE_VERSION: u32 = 1;
@@ -396,6 +398,35 @@ pub struct Monitor {
     /// The aligned step (s): the model's, or alignment's default for a model written before
     /// the step was recorded (the CLI's step guard aligns at the same).
     step_s: f64,
+    /// The decision's mode after the parked zero check's witness ([`witnessed_mode`]), with
+    /// what it was judged on: the usable trips so far (the decision changes only with them)
+    /// and the newest parking's time (the witnesses change only with it). The rows are per
+    /// sample, the decision per trip: the witness is judged again only when either moved.
+    witness: Option<((u64, Option<u64>), FaultMode)>,
+}
+
+/// The decision's mode once the parked zero check has been heard, the load cell's witness
+/// (its readings since the changed trips began): a zero that moved the way and by a good part
+/// of what the trips show makes the change the cell's, whatever the machine signatures could
+/// not tell; one that plainly stayed takes the cell's name away from a change the trips gave
+/// it.
+fn witnessed_mode(d: &Decision, sensor: &SensorCheck, cfg: &SensorLimits) -> FaultMode {
+    if !d.load_offset.is_finite() {
+        return d.mode;
+    }
+    let Some((pct, se)) = sensor.load_zero_shift(cfg, d.window_start) else {
+        return d.mode;
+    };
+    let need = WITNESS_SHARE * 100.0 * d.load_offset.abs();
+    let shown = pct * d.load_offset.signum();
+    let z = crate::sensor::ZERO_WITNESS_Z * se;
+    if shown >= need.max(z) {
+        FaultMode::Sensor
+    } else if d.mode == FaultMode::Sensor && shown <= need - z {
+        d.machine_mode
+    } else {
+        d.mode
+    }
 }
 
 impl Monitor {
@@ -432,6 +463,7 @@ impl Monitor {
             cache: PredictionCache::default(),
             st,
             step_s: model_step(model),
+            witness: None,
         }
     }
 
@@ -460,6 +492,7 @@ impl Monitor {
             cache: PredictionCache::default(),
             st: state,
             step_s: model_step(model),
+            witness: None,
         })
     }
 
@@ -624,25 +657,15 @@ impl Monitor {
         let cfg = &self.model.risk;
         let st = &mut self.st;
         let mut a = st.risk.last;
-        // The parked zero check is the load cell's witness (its readings since the changed
-        // trips began): a zero that moved the way and by a good part of what the trips show
-        // makes the change the cell's, whatever the machine signatures could not tell; one
-        // that plainly stayed takes the cell's name away from a change the trips gave it.
-        let d = &mut a.decision;
-        if let (true, Some((pct, se))) = (
-            d.load_offset.is_finite(),
-            st.sensor
-                .load_zero_shift(&self.model.sensor, d.window_start),
-        ) {
-            let need = WITNESS_SHARE * 100.0 * d.load_offset.abs();
-            let shown = pct * d.load_offset.signum();
-            let z = crate::sensor::ZERO_WITNESS_Z * se;
-            if shown >= need.max(z) {
-                d.mode = FaultMode::Sensor;
-            } else if d.mode == FaultMode::Sensor && shown <= need - z {
-                d.mode = d.machine_mode;
+        let key = (st.risk.trips, st.sensor.newest_zero_witness());
+        a.decision.mode = match self.witness {
+            Some((k, mode)) if k == key => mode,
+            _ => {
+                let mode = witnessed_mode(&a.decision, &st.sensor, &self.model.sensor);
+                self.witness = Some((key, mode));
+                mode
             }
-        }
+        };
         st.alarm.update_machine(a.risk, a.decision.ratio, cfg);
         let level = st.alarm.level();
         let mut event = None;

@@ -813,10 +813,10 @@ impl HourWander {
         // car's 09:00) and 8 with 3-day ones; weighted, 3 and 1.
         let n: f64 = cells.iter().map(|c| c.0).sum();
         let mut omega = [[0.0; N_MODES]; N_MODES];
-        for (k, y, v) in &cells {
+        for (n_c, y, v) in &cells {
             for a in 0..N_MODES {
                 for b in 0..N_MODES {
-                    omega[a][b] += k * (y[a] * y[b] - v[a][b]) / n;
+                    omega[a][b] += n_c * (y[a] * y[b] - v[a][b]) / n;
                 }
             }
         }
@@ -986,6 +986,18 @@ mod tests {
             .iter()
             .map(|t| tr.push(cfg, &t.without_heating(&cfg.winding.beta)))
             .collect()
+    }
+
+    /// The first trip after `onset` at which the decision holds a change (G/h ≥ 1) and `also`.
+    fn first_decided(
+        a: &[TripAssessment],
+        trips: &[TripEvidence],
+        onset: f64,
+        also: impl Fn(&crate::risk::Decision) -> bool,
+    ) -> Option<usize> {
+        a.iter()
+            .zip(trips)
+            .position(|(a, t)| t.start > onset && a.decision.ratio >= 1.0 && also(&a.decision))
     }
 
     fn first_advisory(
@@ -1356,15 +1368,10 @@ mod tests {
             }
         });
         let a = run(&cfg, &trips);
-        let k = a
-            .iter()
-            .zip(&trips)
-            .position(|(a, t)| {
-                t.start > onset
-                    && a.decision.ratio >= 1.0
-                    && a.decision.machine_mode == crate::mode::FaultMode::Brake
-            })
-            .expect("the drag must be decided and named");
+        let k = first_decided(&a, &trips, onset, |d| {
+            d.machine_mode == crate::mode::FaultMode::Brake
+        })
+        .expect("the drag must be decided and named");
         // 200 trips later the joint fit reads 0.35 ± 0.08 (a third low, the uniform part
         // taken by friction); the brake alone 0.56 ± 0.05.
         let d = a[k + 200].decision;
@@ -1398,13 +1405,8 @@ mod tests {
         let rate = 0.04 / 86_400.0;
         let trips = offset_load_trips(&m, 23, 4.0, &|t| rate * (t - onset).max(0.0));
         let a = run(&cfg, &trips);
-        let (k, d) = a
-            .iter()
-            .zip(&trips)
-            .enumerate()
-            .find(|(_, (a, t))| t.start > onset && a.decision.ratio >= 1.0)
-            .map(|(k, (a, _))| (k, a.decision))
-            .expect("the drift must be decided");
+        let k = first_decided(&a, &trips, onset, |_| true).expect("the drift must be decided");
+        let d = a[k].decision;
         assert_eq!(d.mode, crate::mode::FaultMode::Sensor, "{d:?}");
         let now = rate * (trips[k].start - onset);
         assert!(

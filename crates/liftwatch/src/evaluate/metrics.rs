@@ -22,11 +22,11 @@ use serde::Serialize;
 use super::charts::{Chart, ChartCalibration};
 use super::trips::{TripGrouper, TripSummary};
 use super::{DAY_S, PERSISTENT_TRIPS, YEAR_DAYS};
-use crate::alarm::{Event, Level};
+use crate::alarm::{Event, Evidence, Level};
 use crate::align::SampleSink;
 use crate::error::{Error, Result};
 use crate::ingest::Signal;
-use crate::mode::FaultMode;
+use crate::mode::{FaultMode, MACHINE_MODES};
 use crate::monitor::{Monitor, MonitorRow};
 use crate::sample::Sample;
 use crate::sim::logger::RawAligner;
@@ -172,41 +172,26 @@ impl Metrics<'_> {
 
     /// The largest |drift|/SE of the machine modes other than the true one at the event `e`.
     fn leak_z(&self, e: &Event) -> Option<f64> {
-        let ev = &e.evidence;
         let truth = self.truth.filter(|t| t.is_machine())?;
-        [
-            (FaultMode::Motor, ev.kd_drift_pct, ev.kd_drift_se_pct),
-            (
-                FaultMode::Friction,
-                ev.friction_drift_pct,
-                ev.friction_drift_se_pct,
-            ),
-            (FaultMode::Brake, ev.brake_drag_n, ev.brake_drag_se_n),
-        ]
-        .into_iter()
-        .filter(|(m, _, _)| *m != truth)
-        .map(|(_, d, se)| (d / se).abs())
-        .filter(|z| z.is_finite())
-        .reduce(f64::max)
+        MACHINE_MODES
+            .into_iter()
+            .filter(|m| *m != truth)
+            .filter_map(|m| reported_drift(&e.evidence, m))
+            .map(|(d, se)| (d / se).abs())
+            .filter(|z| z.is_finite())
+            .reduce(f64::max)
     }
 
     /// (reported − true)/SE of the true machine mode's drift at the event `e`.
     fn drift_z(&self, e: &Event) -> Option<f64> {
+        let truth_mode = self.truth?;
+        let (got, se) = reported_drift(&e.evidence, truth_mode)?;
         let fx = self.scenario.effects_at(e.time, self.f_c);
-        let ev = &e.evidence;
-        let (got, se, truth) = match self.truth? {
-            FaultMode::Motor => (
-                ev.kd_drift_pct,
-                ev.kd_drift_se_pct,
-                100.0 * (fx.kd_factor - 1.0),
-            ),
-            FaultMode::Friction => (
-                ev.friction_drift_pct,
-                ev.friction_drift_se_pct,
-                100.0 * (fx.friction_factor - 1.0),
-            ),
-            FaultMode::Brake => (ev.brake_drag_n, ev.brake_drag_se_n, fx.brake_drag_n),
-            FaultMode::Sensor | FaultMode::Unknown | FaultMode::Door => return None,
+        let truth = match truth_mode {
+            FaultMode::Motor => 100.0 * (fx.kd_factor - 1.0),
+            FaultMode::Friction => 100.0 * (fx.friction_factor - 1.0),
+            // The brake: `reported_drift` has nothing for the modes beyond the three.
+            _ => fx.brake_drag_n,
         };
         let z = (got - truth) / se;
         z.is_finite().then_some(z)
@@ -408,5 +393,16 @@ impl SimSink for AlignedLog<'_> {
     fn truth(&mut self, row: &TruthRow) -> Result<()> {
         self.sink.truth(row);
         Ok(())
+    }
+}
+
+/// A machine mode's drift and its standard error as an event reports them (Kd %, friction %,
+/// brake drag N); `None` for the other modes.
+fn reported_drift(ev: &Evidence, m: FaultMode) -> Option<(f64, f64)> {
+    match m {
+        FaultMode::Motor => Some((ev.kd_drift_pct, ev.kd_drift_se_pct)),
+        FaultMode::Friction => Some((ev.friction_drift_pct, ev.friction_drift_se_pct)),
+        FaultMode::Brake => Some((ev.brake_drag_n, ev.brake_drag_se_n)),
+        FaultMode::Sensor | FaultMode::Unknown | FaultMode::Door => None,
     }
 }

@@ -576,8 +576,8 @@ impl Sequential {
 /// than the best machine mode by those odds; short of that, the machine modes are weighed
 /// among themselves (returned second, whatever the cell's zero did). On a car that runs
 /// mostly lighter than its counterweight a drive fault fits a zero offset almost as well as
-/// its own signature (a Kd step on the evaluation's 630 kg car: 38.5 against 36.2); the odds asked of the
-/// machine against the cell as well left most drive faults there `unknown`. The cell has a
+/// its own signature (a Kd step on the evaluation's 630 kg car: 38.5 against 36.2); the odds
+/// asked of the machine against the cell as well left most drive faults there `unknown`. The cell has a
 /// witness of its own that the machine lacks, the parked zero check, and the monitor lets it
 /// decide between the two ([`crate::sensor::SensorCheck::load_zero_shift`]).
 fn isolate(cfg: &SequentialConfig, c: &Cusum) -> (FaultMode, FaultMode, [f64; N_MODES], f64) {
@@ -636,7 +636,8 @@ fn window_drift(cfg: &SequentialConfig, c: &Cusum) -> ([f64; N_MODES], [f64; N_M
 /// near-collinear signatures spreads that misfit over all three: on the evaluation a brake
 /// step on the 630 kg car read a drag of 551 ± 40 N against 300 N, with friction −34 % and
 /// Kd −11 %. Once the isolation has said which mode changed, the estimate under that
-/// hypothesis is its signature's alone; the others keep the joint fit's.
+/// hypothesis is its signature's alone; the others are what it leaves
+/// ([`remainder_drifts`]).
 fn alone_drift(cfg: &SequentialConfig, c: &Cusum, m: usize) -> (f64, f64) {
     let k = PACKED_DIAG[m];
     let (a, s) = (c.w[k], c.s[m]);

@@ -37,7 +37,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::ingest::Signal;
 use crate::mode::{MACHINE_MODES, N_MODES};
-use crate::risk::{RiskConfig, TripAssessment};
+use crate::risk::{DriftScale, RiskConfig, TripAssessment};
 
 // Indices of the per-mode arrays, in the order of `MACHINE_MODES`.
 const MOTOR: usize = FaultMode::Motor as usize;
@@ -95,6 +95,14 @@ pub struct Evidence {
     pub friction_drift_pct: f64,
     /// Its standard error (percent).
     pub friction_drift_se_pct: f64,
+    /// The same change as a force at the rated speed (N): what the data determine, whatever
+    /// the friction level it is a share of (`risk::DriftScale`); null in events written
+    /// before it was kept.
+    #[serde(default = "crate::exact::nan")]
+    pub friction_drift_n: f64,
+    /// Its standard error (N).
+    #[serde(default = "crate::exact::nan")]
+    pub friction_drift_se_n: f64,
     /// Re-identified brake drag (N).
     pub brake_drag_n: f64,
     /// Its standard error (N).
@@ -133,10 +141,11 @@ pub struct Evidence {
 }
 
 impl Evidence {
-    /// The evidence of a tracker's latest assessment; `f_c` turns the brake coefficient into N.
+    /// The evidence of a tracker's latest assessment; `scale` turns the brake and friction
+    /// coefficients into N.
     pub fn from_assessment(
         a: &TripAssessment,
-        f_c: f64,
+        scale: DriftScale,
         trips: u64,
         implausible_trips: u64,
     ) -> Self {
@@ -148,8 +157,10 @@ impl Evidence {
             kd_drift_se_pct: 100.0 * a.drift_se[MOTOR],
             friction_drift_pct: 100.0 * a.drift[FRICTION],
             friction_drift_se_pct: 100.0 * a.drift_se[FRICTION],
-            brake_drag_n: f_c * a.drift[BRAKE],
-            brake_drag_se_n: f_c * a.drift_se[BRAKE],
+            friction_drift_n: scale.friction_n * a.drift[FRICTION],
+            friction_drift_se_n: scale.friction_n * a.drift_se[FRICTION],
+            brake_drag_n: scale.brake_n * a.drift[BRAKE],
+            brake_drag_se_n: scale.brake_n * a.drift_se[BRAKE],
             trips,
             implausible_trips,
             cusum_ratio: a.decision.ratio,

@@ -1419,6 +1419,49 @@ mod tests {
     }
 
     #[test]
+    fn a_friction_change_reads_its_newtons_whatever_the_fitted_friction_level() {
+        // The machine's friction is half the level the model fitted (a small car's level is
+        // pinned by (1 − α_down)·Kd·F alone and came out 1.2-3× the truth) and rises by 40 %
+        // in a step on day 1: 0.4 · ½ of the model's friction at the rated speed, which is
+        // where the synthetic trips cruise. The event reads those newtons within 2 SE; its
+        // percent, a share of the fitted level, reads 20 %, half the true rise.
+        let m = test_model();
+        let cfg = calibrated(&m).risk;
+        let onset = 86_400.0;
+        let (level, rise) = (0.5, 0.4);
+        let trips = synthetic_trips(&m, 29, 4.0, 0.0, &|t, x| {
+            if t >= onset {
+                rise * level * x[FRICTION]
+            } else {
+                0.0
+            }
+        });
+        let a = run(&cfg, &trips);
+        let k = first_decided(&a, &trips, onset, |d| {
+            d.mode == crate::mode::FaultMode::Friction
+        })
+        .expect("the friction step must be decided as friction");
+        let scale = crate::risk::DriftScale::of(&m);
+        let ev = crate::alarm::Evidence::from_assessment(&a[k], scale, k as u64, 0);
+        // The synthetic trips cruise at 1.75 m/s, where the injected friction force is the
+        // reference's F_c + c·v.
+        let (f_c, c_visc) = crate::risk::friction_reference(&m);
+        let truth_n = rise * level * (f_c + c_visc * 1.75);
+        assert!(
+            (ev.friction_drift_n - truth_n).abs() < 2.0 * ev.friction_drift_se_n,
+            "friction {} ± {} N against {truth_n} N",
+            ev.friction_drift_n,
+            ev.friction_drift_se_n
+        );
+        assert!(
+            (ev.friction_drift_pct - 100.0 * rise * level).abs() < 2.0 * ev.friction_drift_se_pct,
+            "friction {} ± {} % of the fitted level",
+            ev.friction_drift_pct,
+            ev.friction_drift_se_pct
+        );
+    }
+
+    #[test]
     fn a_ramps_drift_is_where_it_stands_now_not_its_windows_mean() {
         // Kd grows by 1 % a day from day 1. Where the change is held, the drift the decision
         // reports is the ramp's level at the last trip within 2 SE; the window's mean, which

@@ -26,6 +26,12 @@ fn parse<E: serde::de::Error>(repr: Option<Repr>) -> Result<f64, E> {
     }
 }
 
+/// NaN: the default of a float a document written before it was kept lacks
+/// (`#[serde(default = "crate::exact::nan")]`).
+pub fn nan() -> f64 {
+    f64::NAN
+}
+
 /// Writes `x` as its shortest round-trip decimal string.
 ///
 /// # Errors

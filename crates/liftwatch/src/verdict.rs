@@ -33,7 +33,7 @@ use crate::ingest::time::{day_text, instant_text, is_calendar};
 use crate::mode::{FaultMode, MACHINE_MODES, N_MODES};
 use crate::monitor::MonitorState;
 use crate::operation::Outage;
-use crate::risk::friction_reference;
+use crate::risk::{friction_reference, DriftScale};
 
 /// Hours of healthy training below which the verdict says the model is short of data: the
 /// calibration's own bound, [`crate::calibrate::ENOUGH_TRAINING_HOURS`].
@@ -52,6 +52,9 @@ pub struct Drift {
     pub se: f64,
     /// `%` or `N`.
     pub unit: &'static str,
+    /// Friction's drift as a force at the rated speed (N) and its standard error: what the
+    /// data determine (`risk::DriftScale`); NaN (null) for the other modes.
+    pub force_n: [f64; 2],
 }
 
 /// The verdict: level, mode, drift, what to inspect, forecast, evidence and caveats.
@@ -244,6 +247,7 @@ impl Verdict {
         let cfg = &model.risk;
         let a = state.assessment();
         let f_c = friction_reference(&model.hybrid).0;
+        let friction_n = DriftScale::of(&model.hybrid).friction_n;
         let level = state.level();
         let mode = if level == Level::Normal {
             FaultMode::Unknown
@@ -262,6 +266,11 @@ impl Verdict {
                     value: k * a.drift[m],
                     se: k * a.drift_se[m],
                     unit,
+                    force_n: if MACHINE_MODES[m] == FaultMode::Friction {
+                        [friction_n * a.drift[m], friction_n * a.drift_se[m]]
+                    } else {
+                        [f64::NAN; 2]
+                    },
                 }
             })
             .collect();
@@ -393,7 +402,16 @@ fn drift_text(d: &Drift) -> String {
     if !d.value.is_finite() {
         return format!("{} n/a", d.quantity);
     }
-    format!("{} {:+.1} ± {:.1} {}", d.quantity, d.value, d.se, d.unit)
+    let [f, f_se] = d.force_n;
+    let force = if f.is_finite() {
+        format!(" ({f:+.0} ± {f_se:.0} N at rated speed)")
+    } else {
+        String::new()
+    };
+    format!(
+        "{} {:+.1} ± {:.1} {}{force}",
+        d.quantity, d.value, d.se, d.unit
+    )
 }
 
 /// `at this rate (Kd +0.8 ± 0.1 %/day since 3 Mar 2026): the alarm level (Kd +7.1 %) in ~6

@@ -86,9 +86,13 @@ pub(super) struct Metrics<'a> {
     pub channel: Option<Signal>,
     /// The monitored run.
     pub sink: &'a CaseSink,
-    /// The degradation and the plant's true F_c (N), for the true drift at detection.
+    /// The degradation, for the true drift at detection.
     pub scenario: &'a sim::Scenario,
+    /// The plant's true F_c (N), which scales the brake's drag.
     pub f_c: f64,
+    /// The plant's true friction at the rated speed, F_c + c·v_r (N): what a friction
+    /// change is a share of, in the newtons the events report it in.
+    pub friction_n: f64,
 }
 
 impl Metrics<'_> {
@@ -189,7 +193,7 @@ impl Metrics<'_> {
         let fx = self.scenario.effects_at(e.time, self.f_c);
         let truth = match truth_mode {
             FaultMode::Motor => 100.0 * (fx.kd_factor - 1.0),
-            FaultMode::Friction => 100.0 * (fx.friction_factor - 1.0),
+            FaultMode::Friction => self.friction_n * (fx.friction_factor - 1.0),
             // The brake: `reported_drift` has nothing for the modes beyond the three.
             _ => fx.brake_drag_n,
         };
@@ -396,12 +400,13 @@ impl SimSink for AlignedLog<'_> {
     }
 }
 
-/// A machine mode's drift and its standard error as an event reports them (Kd %, friction %,
-/// brake drag N); `None` for the other modes.
+/// A machine mode's drift and its standard error as an event reports them (Kd %, friction N
+/// at rated speed, brake drag N); `None` for the other modes. Friction is judged in newtons,
+/// the quantity the data determine (`risk::DriftScale` says why its percent is not).
 fn reported_drift(ev: &Evidence, m: FaultMode) -> Option<(f64, f64)> {
     match m {
         FaultMode::Motor => Some((ev.kd_drift_pct, ev.kd_drift_se_pct)),
-        FaultMode::Friction => Some((ev.friction_drift_pct, ev.friction_drift_se_pct)),
+        FaultMode::Friction => Some((ev.friction_drift_n, ev.friction_drift_se_n)),
         FaultMode::Brake => Some((ev.brake_drag_n, ev.brake_drag_se_n)),
         FaultMode::Sensor | FaultMode::Unknown | FaultMode::Door => None,
     }

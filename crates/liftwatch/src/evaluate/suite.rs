@@ -353,6 +353,7 @@ pub fn run_case(case: &Case, trained: &Trained, cfg: &SuiteConfig) -> Result<Cas
         sink: &sink,
         scenario: &case.scenario,
         f_c: trained.plant.f_c,
+        friction_n: trained.plant.f_c + trained.plant.c_visc * trained.plant.rated.rated_speed_mps,
     };
     let methods = vec![
         ctx.liftwatch(),

@@ -47,7 +47,8 @@ use crate::operation::{DayUsage, OperationEvent, OperationTracker};
 use crate::output::write_atomic;
 use crate::residual::{PredictionCache, Residuals};
 use crate::risk::{
-    friction_reference, heating_reference, Decision, Heating, RiskTracker, TripAccumulator,
+    friction_reference, heating_reference, Decision, DriftScale, Heating, RiskTracker,
+    TripAccumulator,
 };
 use crate::sample::Sample;
 use crate::sensor::{SensorCheck, SensorLimits};
@@ -252,7 +253,7 @@ pub struct MonitorState {
     pub samples: u64,
     /// Time of the last sample seen (s), NaN before the first: input at or before it was
     /// already watched, and a run that feeds it again would count it twice.
-    #[serde(with = "crate::exact", default = "nan")]
+    #[serde(with = "crate::exact", default = "crate::exact::nan")]
     pub last_time: f64,
     /// Complete trips seen.
     pub trips: u64,
@@ -262,7 +263,7 @@ pub struct MonitorState {
     pub events: u64,
     /// Time of the event that opened the current episode (s), NaN at `normal`; states written
     /// before it was recorded read NaN.
-    #[serde(with = "crate::exact", default = "nan")]
+    #[serde(with = "crate::exact", default = "crate::exact::nan")]
     pub episode_since: f64,
     /// The drifts per block of trips, for the time-to-maintenance forecast; empty in states
     /// written before it was kept (bounded: [`crate::forecast::MAX_POINTS`] blocks).
@@ -379,11 +380,6 @@ fn model_step(model: &FittedModel) -> f64 {
         .unwrap_or_else(|| crate::align::AlignConfig::default().step_s)
 }
 
-/// Default of [`MonitorState::last_time`] for states written before it was recorded.
-fn nan() -> f64 {
-    f64::NAN
-}
-
 /// The streaming monitor: one aligned sample in, the row of the sample the feature tracker
 /// releases out.
 #[derive(Clone, Debug)]
@@ -391,6 +387,8 @@ pub struct Monitor {
     model: FittedModel,
     /// [`friction_reference`] of the model, computed once.
     friction: (f64, f64),
+    /// [`DriftScale`] of the model, computed once.
+    scale: DriftScale,
     /// [`heating_reference`] of the model and its winding's τ, computed once.
     thermal: (f64, f64),
     cache: PredictionCache,
@@ -459,6 +457,7 @@ impl Monitor {
         Monitor {
             model: model.clone(),
             friction: friction_reference(&model.hybrid),
+            scale: DriftScale::of(&model.hybrid),
             thermal: (heating_reference(&model.hybrid), model.risk.winding.tau_s),
             cache: PredictionCache::default(),
             st,
@@ -488,6 +487,7 @@ impl Monitor {
         Ok(Monitor {
             model: model.clone(),
             friction: friction_reference(&model.hybrid),
+            scale: DriftScale::of(&model.hybrid),
             thermal: (heating_reference(&model.hybrid), model.risk.winding.tau_s),
             cache: PredictionCache::default(),
             st: state,
@@ -671,7 +671,7 @@ impl Monitor {
         let mut event = None;
         if update_episode(&mut st.episode_mode, before, &st.alarm, &a, cfg) {
             let evidence =
-                Evidence::from_assessment(&a, self.friction.0, st.risk.trips, st.implausible_trips);
+                Evidence::from_assessment(&a, self.scale, st.risk.trips, st.implausible_trips);
             // A `sensor` the channel checks do not hold is the isolation's: the load cell's
             // zero explained the machine evidence best.
             let channel = (st.episode_mode == FaultMode::Sensor)
@@ -710,7 +710,7 @@ impl Monitor {
             e: res.e,
             kd_drift_pct: 100.0 * a.drift[MOTOR],
             friction_drift_pct: 100.0 * a.drift[FRICTION],
-            brake_drag_n: self.friction.0 * a.drift[BRAKE],
+            brake_drag_n: self.scale.brake_n * a.drift[BRAKE],
             trip: x.trip,
             trip_end: None,
             operation: None,

@@ -162,6 +162,35 @@ pub fn friction_reference(model: &HybridModel) -> (f64, f64) {
     )
 }
 
+/// The forces the drift coefficients are shares of (N): the brake's is a share of F_c, the
+/// friction's of the friction force at the rated speed, F_c + c·v_r, both of
+/// [`friction_reference`].
+///
+/// A change of friction shows in the voltage as a force, and its newtons are what the data
+/// determine: the coefficient times the force it scales, whatever that force is. Its share in
+/// percent is only as good as the fitted friction level, which the voltage pins through the
+/// up/down asymmetry (1 − α_down)·Kd·F alone, so a tenth of a volt of direction-dependent
+/// timing error moves it by a hundred newtons (a simulated 630 kg car fits 435 N at rated
+/// speed against a true 357 N, and its friction steps read 0.3-0.6 of the truth in percent).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DriftScale {
+    /// Newtons per unit of the brake coefficient: the reference F_c.
+    pub brake_n: f64,
+    /// Newtons per unit of the friction coefficient: the reference friction at rated speed.
+    pub friction_n: f64,
+}
+
+impl DriftScale {
+    /// The scale of `model`'s drift coefficients.
+    pub fn of(model: &HybridModel) -> Self {
+        let (f_c, c_visc) = friction_reference(model);
+        DriftScale {
+            brake_n: f_c,
+            friction_n: f_c + c_visc * model.elevator.rated_speed_mps,
+        }
+    }
+}
+
 /// The load-cell zero's regressor of one moving sample: ∂U_pred/∂λ = φ(s)·Kd·s·Q·(g + a)
 /// (V per unit of λ, the load as a share of the rated load Q): the inertia and the weight of
 /// a load that the cell reads but the car does not carry. The network's share of ∂U/∂λ is

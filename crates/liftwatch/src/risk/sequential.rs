@@ -455,12 +455,8 @@ pub struct Decision {
     pub machine_mode: FaultMode,
     /// When the leading window's first trip began (s); NaN when it is not known (a window a
     /// state saved before it was kept had begun).
-    #[serde(with = "exact", default = "nan")]
+    #[serde(with = "exact", default = "crate::exact::nan")]
     pub window_start: f64,
-}
-
-fn nan() -> f64 {
-    f64::NAN
 }
 
 /// The CUSUM bank of one elevator: one per mode and size.

@@ -1394,6 +1394,38 @@ mod tests {
     }
 
     #[test]
+    fn a_drag_that_rubs_going_up_too_is_named_brake_and_a_friction_rise_friction() {
+        // A dragging brake that rubs going up at a fifth of its downward drag: the friction
+        // signature alone fits the first decision's window about as well as the brake's
+        // alone, and the isolation left it `unknown`. What the brake's asymmetric part adds
+        // to friction's names it. (At 30 % and more the friction signature still wins that
+        // first window.) A friction rise of the same size, which has no asymmetric part,
+        // stays `friction`.
+        let m = test_model();
+        let cfg = calibrated(&m).risk;
+        let onset = 86_400.0;
+        let drag = 0.5;
+        let first_mode = |fault: crate::risk::tests::Injection| {
+            let trips = synthetic_trips(&m, 31, 4.0, 0.0, fault);
+            let a = run(&cfg, &trips);
+            let k = first_decided(&a, &trips, onset, |_| true).expect("the change is decided");
+            a[k].decision.machine_mode
+        };
+        let brake = first_mode(&|t, x| {
+            if t <= onset {
+                0.0
+            } else if x[BRAKE] != 0.0 {
+                drag * x[BRAKE]
+            } else {
+                0.2 * drag * x[FRICTION]
+            }
+        });
+        assert_eq!(brake, crate::mode::FaultMode::Brake);
+        let friction = first_mode(&|t, x| if t <= onset { 0.0 } else { drag * x[FRICTION] });
+        assert_eq!(friction, crate::mode::FaultMode::Friction);
+    }
+
+    #[test]
     fn a_drifting_load_cell_is_named_sensor_not_motor() {
         // The cell's zero creeps up by 4 % of the rated load a day from day 1: every expected
         // force grows by Q·(g + a)·Δλ, the voltage residual looks like the drive's. The

@@ -18,6 +18,8 @@
 //! ratio   = max over m, j of G_mj/h_mj                ≥ 1: the decision says "changed"
 //! mode    = argmax_m z_m on the crossing window,  z_m = S_m/(s_m·√W_mm), one signature alone,
 //!           named when z_best² − z_second² ≥ 2·ln(ISOLATION_ODDS), else unknown;
+//!           brake against friction (the two best): brake when z² of the two jointly less
+//!           z² of friction alone ≥ 2·ln(ISOLATION_ODDS), with a positive drag;
 //!           beside the three, the load cell's zero: z_L = S_L/(s_L·√W_LL) of either sign,
 //!           S_L = Σ (mean x_load·r_U − mean x_load·xᵀ·θ0 − θ_L·mean x_load²),
 //!           named `sensor` when z_L² − z_best² ≥ 2·ln(ISOLATION_ODDS)
@@ -600,12 +602,50 @@ fn isolate(cfg: &SequentialConfig, c: &Cusum) -> (FaultMode, FaultMode, [f64; N_
     } else {
         FaultMode::Unknown
     };
+    let rubs = |m: FaultMode| m == FaultMode::Friction || m == FaultMode::Brake;
+    let machine = if rubs(order[0])
+        && rubs(order[1])
+        && machine != FaultMode::Brake
+        && brake_beyond_friction(cfg, c, &w) >= odds
+    {
+        FaultMode::Brake
+    } else {
+        machine
+    };
     let mode = if z2_load - best >= odds {
         FaultMode::Sensor
     } else {
         machine
     };
     (mode, machine, z2.map(|z| 0.5 * z), 0.5 * z2_load)
+}
+
+/// What the brake's signature adds to friction's on a window, in z² (twice the log-likelihood
+/// ratio): z² of the two fitted jointly less z² of friction alone, 0 unless the joint fit
+/// puts a positive drag on the brake. A dragging brake rubs a little going up too, so its
+/// window carries some of the friction signature, and on a window where both rose the
+/// friction signature alone can fit better than the brake's alone (the isolation's rule): on
+/// the evaluation the friction CUSUM crossed first on most brake faults and named them
+/// `friction`. The brake's own mark is its asymmetry (down and decelerating travel), which a
+/// rise of friction in both directions does not have; when that asymmetric part explains the
+/// window beyond friction by [`ISOLATION_ODDS`], the brake is named. Both scores share the
+/// larger of the two healthy noise factors s².
+fn brake_beyond_friction(cfg: &SequentialConfig, c: &Cusum, w: &[[f64; N_MODES]; N_MODES]) -> f64 {
+    let (b, f) = (FaultMode::Brake as usize, FaultMode::Friction as usize);
+    let det = w[b][b] * w[f][f] - w[b][f] * w[b][f];
+    if !(det > 0.0 && w[f][f] > 0.0) {
+        return 0.0;
+    }
+    let (sb, sf) = (c.s[b], c.s[f]);
+    let drag = (w[f][f] * sb - w[b][f] * sf) / det;
+    if drag <= 0.0 {
+        return 0.0;
+    }
+    let rub = (w[b][b] * sf - w[b][f] * sb) / det;
+    let s2 = cfg.s2[b].max(cfg.s2[f]);
+    let joint = (drag * sb + rub * sf) / s2;
+    let friction_alone = sf.max(0.0).powi(2) / (s2 * w[f][f]);
+    joint - friction_alone
 }
 
 /// Joint estimate of the three drifts on a window, now (its line's level at the last trip)

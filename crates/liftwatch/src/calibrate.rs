@@ -1347,6 +1347,20 @@ mod tests {
         );
     }
 
+    /// A brake dragging by `drag` (brake coefficient) from `onset` on, that also rubs going
+    /// up at a fifth of that (as the simulator's does): not quite the brake signature.
+    fn rubbing_drag(onset: f64, drag: f64) -> impl Fn(f64, &[f64; N_MODES]) -> f64 {
+        move |t, x| {
+            if t <= onset {
+                0.0
+            } else if x[BRAKE] != 0.0 {
+                drag * x[BRAKE]
+            } else {
+                0.2 * drag * x[FRICTION]
+            }
+        }
+    }
+
     #[test]
     fn the_named_modes_drift_is_its_own_not_the_joint_fits() {
         // A dragging brake that rubs a little in every direction (a fifth of its downward
@@ -1358,15 +1372,7 @@ mod tests {
         let cfg = calibrated(&m).risk;
         let onset = 86_400.0;
         let drag = 0.5;
-        let trips = synthetic_trips(&m, 29, 4.0, 0.0, &|t, x| {
-            if t <= onset {
-                0.0
-            } else if x[BRAKE] != 0.0 {
-                drag * x[BRAKE]
-            } else {
-                0.2 * drag * x[FRICTION]
-            }
-        });
+        let trips = synthetic_trips(&m, 29, 4.0, 0.0, &rubbing_drag(onset, drag));
         let a = run(&cfg, &trips);
         let k = first_decided(&a, &trips, onset, |d| {
             d.machine_mode == crate::mode::FaultMode::Brake
@@ -1411,15 +1417,7 @@ mod tests {
             let k = first_decided(&a, &trips, onset, |_| true).expect("the change is decided");
             a[k].decision.machine_mode
         };
-        let brake = first_mode(&|t, x| {
-            if t <= onset {
-                0.0
-            } else if x[BRAKE] != 0.0 {
-                drag * x[BRAKE]
-            } else {
-                0.2 * drag * x[FRICTION]
-            }
-        });
+        let brake = first_mode(&rubbing_drag(onset, drag));
         assert_eq!(brake, crate::mode::FaultMode::Brake);
         let friction = first_mode(&|t, x| if t <= onset { 0.0 } else { drag * x[FRICTION] });
         assert_eq!(friction, crate::mode::FaultMode::Friction);

@@ -33,7 +33,7 @@ use crate::ingest::time::{day_text, instant_text, is_calendar};
 use crate::mode::{FaultMode, MACHINE_MODES, N_MODES};
 use crate::monitor::MonitorState;
 use crate::operation::Outage;
-use crate::risk::{friction_reference, DriftScale};
+use crate::risk::DriftScale;
 
 /// Hours of healthy training below which the verdict says the model is short of data: the
 /// calibration's own bound, [`crate::calibrate::ENOUGH_TRAINING_HOURS`].
@@ -246,8 +246,7 @@ impl Verdict {
     pub fn new(model: &FittedModel, state: &MonitorState) -> Verdict {
         let cfg = &model.risk;
         let a = state.assessment();
-        let f_c = friction_reference(&model.hybrid).0;
-        let friction_n = DriftScale::of(&model.hybrid).friction_n;
+        let scale = DriftScale::of(&model.hybrid);
         let level = state.level();
         let mode = if level == Level::Normal {
             FaultMode::Unknown
@@ -259,7 +258,7 @@ impl Verdict {
         let since = since.filter(|t| t.is_finite() && level > Level::Normal);
         let drifts = (0..N_MODES)
             .map(|m| {
-                let (k, unit, quantity) = unit_of(m, f_c);
+                let (k, unit, quantity) = unit_of(m, scale.brake_n);
                 Drift {
                     mode: MACHINE_MODES[m],
                     quantity,
@@ -267,7 +266,10 @@ impl Verdict {
                     se: k * a.drift_se[m],
                     unit,
                     force_n: if MACHINE_MODES[m] == FaultMode::Friction {
-                        [friction_n * a.drift[m], friction_n * a.drift_se[m]]
+                        [
+                            scale.friction_n * a.drift[m],
+                            scale.friction_n * a.drift_se[m],
+                        ]
                     } else {
                         [f64::NAN; 2]
                     },

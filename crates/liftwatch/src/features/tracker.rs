@@ -27,6 +27,13 @@ const L_REF_WINDOW: f64 = 30.0;
 /// A direction signal seen this recently (s) still tells the sign of a start without one.
 const DIR_MEMORY_S: f64 = 5.0;
 
+/// With the door signal missing, a standstill load reading this far (percent of rated load)
+/// from the running mean starts a new mean: riders boarded or left. One rider of 75 kg is
+/// 4.7 % of the largest car in scope (1600 kg) and 12 % of the smallest (630 kg), while a load
+/// cell at rest reads within a few tenths of a percent; a change smaller than this mixes into
+/// the mean by less than this.
+const LOAD_STEP_PCT: f64 = 2.0;
+
 /// Streaming feature extraction: one aligned sample in, the row of the previous sample out.
 ///
 /// Its state is a few samples and a trip in progress, (de)serialisable so that a monitor can
@@ -192,7 +199,10 @@ impl FeatureTracker {
         } else {
             f64::NAN
         };
-        self.update_load_reference(speed, load, door, x.time);
+        // A new standstill begins when the sample before this one was not itself at rest.
+        let thr_still = 0.2 * thr;
+        let new_stop = !self.cur.is_some_and(|c| c.speed <= thr_still);
+        self.update_load_reference(speed, load, door, x.time, new_stop);
         Pre {
             time: x.time,
             speed,
@@ -234,8 +244,19 @@ impl FeatureTracker {
     }
 
     /// Updates the load reference: the last standstill reading and the running mean of
-    /// door-closed standstill readings, restarted whenever the door is open.
-    fn update_load_reference(&mut self, speed: f64, load: f64, door: Door, time: f64) {
+    /// door-closed standstill readings, restarted whenever the door is open. With the door
+    /// signal missing (a dropout, or a log without it) nothing says when riders changed, so
+    /// the mean restarts at each new standstill (`new_stop`) and at each step of the reading
+    /// beyond [`LOAD_STEP_PCT`]: without that, one mean ran across several stops and held a
+    /// trip's λ at a quarter of its load.
+    fn update_load_reference(
+        &mut self,
+        speed: f64,
+        load: f64,
+        door: Door,
+        time: f64,
+        new_stop: bool,
+    ) {
         // The reference: readings at true standstill (well below the motion threshold, so not
         // the first instant of a start) with the door not known to be open; an open door
         // means the load is changing and the mean restarts.
@@ -245,10 +266,14 @@ impl FeatureTracker {
             self.rest_load = load;
             self.rest_load_time = time;
         }
-        if door == Door::Open {
+        let riders_changed = door == Door::Unknown
+            && still
+            && (new_stop || (load - self.ref_mean).abs() > LOAD_STEP_PCT);
+        if door == Door::Open || riders_changed {
             self.ref_mean = f64::NAN;
             self.ref_n = 0.0;
-        } else if still {
+        }
+        if door != Door::Open && still {
             self.ref_n = (self.ref_n + 1.0).min(L_REF_WINDOW);
             let m = if self.ref_mean.is_finite() {
                 self.ref_mean
@@ -360,6 +385,36 @@ mod tests {
                 assert!(same_row(a, b), "split at {split}: {a:?} != {b:?}");
             }
             assert_eq!(trips, whole.trips, "split at {split}");
+        }
+    }
+
+    #[test]
+    fn without_a_door_signal_each_trip_carries_its_own_load() {
+        // Riders change at every stop; the door channel is missing for the whole day, as in
+        // a dropout or a log without it. Each trip's λ must still be the load it carried, not
+        // a mean run across the stops before it (the empty second trip read 0.28 before).
+        let legs = [
+            (8, 0.4),
+            (3, 0.0),
+            (12, 0.25),
+            (2, 0.6),
+            (9, 0.05),
+            (1, 0.3),
+        ];
+        let mut d = day(&legs, 0.15, 5);
+        for s in &mut d.series.samples {
+            s.door = f64::NAN;
+        }
+        let f = extract(&d.series, &config());
+        assert_eq!(f.trips.len(), legs.len());
+        for (t, (_, lambda)) in f.trips.iter().zip(legs) {
+            // A mean of a few readings of 0.5 % noise: within 1 % of rated load.
+            assert!(
+                (t.load_ratio - lambda).abs() < 0.01,
+                "trip {} carried {lambda}, read {}",
+                t.index,
+                t.load_ratio
+            );
         }
     }
 

@@ -13,10 +13,8 @@
 //!              the trip's end, whatever the hour
 //! availability per day (UTC days of the data clock): 1 − outage s / observed s
 //! door health  per scored cycle (d ≤ DOOR_CYCLE_MAX_S), two scores of healthy mean 0, sd 1:
-//!                z_d = clip((clip((d' − med)/σ̂, ±3) − m_d)/s_d, ±3)         σ̂ = 1.4826·MAD
+//!                z_d = clip((clip((d − med)/σ̂, ±3) − m_d)/s_d, ±3)          σ̂ = 1.4826·MAD
 //!                z_r = clip((clip((x − p0)/√(p0(1 − p0)), ±3) − m_r)/s_r, ±3)   x = 1: reopening
-//!              d' = d − b·(moved − moved_typ): the duration at the training's typical load
-//!                moved, moved = |L_close − L_open| (% of rated), b fitted on the training
 //!              w = the healthy day-to-day wander of the daily mean z beyond its noise
 //!              one CUSUM per score and size ν (risk::sequential's sizes and increment):
 //!                G ← min(2h, max(0, G + ν·(z − 2w) − ν²/2));   advisory at G ≥ h,
@@ -101,10 +99,6 @@ pub const DOOR_WANDER_K: f64 = 2.0;
 /// The wander w is at least this (score units): a week shows only its own days.
 pub const DOOR_WANDER_FLOOR: f64 = 0.1;
 
-/// The riders law is refitted without the cycles this many robust deviations off the first
-/// line: a door held open or reopened is not the riders' time.
-pub const RIDERS_LAW_TRIM: f64 = 4.0;
-
 /// Years of bootstrapped healthy door cycles per false advisory a year, as for the machine.
 pub const DOOR_BOOTSTRAP_YEARS: f64 = 10.0;
 
@@ -138,7 +132,7 @@ const HOURS_PER_WEEK: usize = 168;
 /// The door check's reference, learnt on healthy cycles.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct DoorReference {
-    /// Median healthy cycle duration at the typical load moved (s).
+    /// Median healthy cycle duration (s).
     pub median_s: f64,
     /// σ̂ = 1.4826·MAD of the healthy durations (s), at least one step.
     pub sigma_s: f64,
@@ -157,15 +151,6 @@ pub struct DoorReference {
     pub cycles: u64,
     /// Healthy door cycles per day of training.
     pub cycles_per_day: f64,
-    /// b: how much longer (s) the door stays open per percent of rated load that boards or
-    /// leaves, fitted on the training's cycles (0 in models written before it, and when the
-    /// load was never read at both ends).
-    #[serde(default)]
-    pub s_per_moved_pct: f64,
-    /// The training's median load moved per cycle (percent of rated load): a cycle is
-    /// compared at this load, d − b·(moved − typical).
-    #[serde(default)]
-    pub typical_moved_pct: f64,
 }
 
 /// Everything [`OperationTracker`] compares with, learnt in `fit`; models written before it
@@ -195,11 +180,6 @@ pub struct DoorCycle {
     pub duration_s: f64,
     /// It opened within [`REOPEN_WINDOW_S`] of the previous close, no motion between.
     pub reopening: bool,
-    /// |L_close − L_open|: how far the load reading moved while the door was open (percent
-    /// of rated load), riders boarding or leaving; NaN when the load was not read at rest
-    /// before the door opened and when it closed.
-    #[serde(with = "exact", default = "exact::nan")]
-    pub moved_pct: f64,
 }
 
 /// Why a car is out of service.
@@ -458,7 +438,7 @@ fn raw_scores(r: &DoorReference, c: &DoorCycle) -> [f64; 2] {
     let p = r.reopen_rate;
     let x = if c.reopening { 1.0 } else { 0.0 };
     [
-        ((r.at_typical_load(c) - r.median_s) / r.sigma_s).clamp(-CLIP, CLIP),
+        ((c.duration_s - r.median_s) / r.sigma_s).clamp(-CLIP, CLIP),
         ((x - p) / (p * (1.0 - p)).sqrt()).clamp(-CLIP, CLIP),
     ]
 }
@@ -495,12 +475,6 @@ pub struct OperationTracker {
     #[serde(with = "exact")]
     last_close: f64,
     moved_since_close: bool,
-    /// The last load reading at rest with the door closed (percent of rated).
-    #[serde(with = "exact", default = "exact::nan")]
-    rest_load: f64,
-    /// `rest_load` when the door last opened: the load before the riders moved.
-    #[serde(with = "exact", default = "exact::nan")]
-    load_at_open: f64,
     /// Time of the last moving sample, or of the first sample (s).
     #[serde(with = "exact")]
     rest_since: f64,
@@ -542,8 +516,6 @@ impl OperationTracker {
             open_since: f64::NAN,
             last_close: f64::NAN,
             moved_since_close: false,
-            rest_load: f64::NAN,
-            load_at_open: f64::NAN,
             rest_since: f64::NAN,
             expected: 0.0,
             pending: Vec::new(),
@@ -620,7 +592,7 @@ impl OperationTracker {
                 self.check_outage(x, r);
             }
         }
-        let cycle = self.door_step(x, at_rest);
+        let cycle = self.door_step(x);
         if let (Some(c), Some(dr)) = (cycle, r.and_then(|r| r.door.as_ref())) {
             let backlog = self
                 .last_outage
@@ -671,8 +643,8 @@ impl OperationTracker {
         self.queue.push_back(OperationEvent::OutageStart(o));
     }
 
-    /// Door cycle bookkeeping at one sample (`at_rest`: the car reads standing still).
-    fn door_step(&mut self, x: &Sample, at_rest: bool) -> Option<DoorCycle> {
+    /// Door cycle bookkeeping at one sample.
+    fn door_step(&mut self, x: &Sample) -> Option<DoorCycle> {
         let t = x.time;
         let d = x.door;
         let mut out = None;
@@ -680,7 +652,6 @@ impl OperationTracker {
             self.open_since = f64::NAN;
         } else if self.door_prev == 0.0 && d != 0.0 {
             self.open_since = t;
-            self.load_at_open = self.rest_load;
         } else if self.door_prev != 0.0 && !self.door_prev.is_nan() && d == 0.0 {
             if self.open_since.is_finite() {
                 let reopening = self.last_close.is_finite()
@@ -690,7 +661,6 @@ impl OperationTracker {
                     start: self.open_since,
                     duration_s: t - self.open_since,
                     reopening,
-                    moved_pct: (x.load - self.load_at_open).abs(),
                 };
                 let u = self.day_mut(t);
                 u.door_cycles += 1;
@@ -708,11 +678,6 @@ impl OperationTracker {
             self.open_since = f64::NAN;
             self.last_close = t;
             self.moved_since_close = false;
-        }
-        if d == 0.0 && at_rest && x.load.is_finite() {
-            self.rest_load = x.load;
-        } else if !at_rest {
-            self.rest_load = f64::NAN;
         }
         self.door_prev = d;
         out
@@ -969,59 +934,7 @@ impl OperationReference {
     }
 }
 
-/// The door's riders law from healthy cycles: (b, typical load moved) of
-/// d = d0 + b·moved, least squares on the cycles whose load was read at both ends, refitted
-/// once without those beyond [`RIDERS_LAW_TRIM`] robust deviations (held doors, reopenings),
-/// and b never negative; (0, 0) with fewer than [`DOOR_MIN_CYCLES`] such cycles or no spread
-/// in the load moved.
-fn riders_law(cycles: &[DoorCycle]) -> (f64, f64) {
-    let pts: Vec<(f64, f64)> = cycles
-        .iter()
-        .filter(|c| c.moved_pct.is_finite())
-        .map(|c| (c.moved_pct, c.duration_s))
-        .collect();
-    if pts.len() < DOOR_MIN_CYCLES {
-        return (0.0, 0.0);
-    }
-    let moved: Vec<f64> = pts.iter().map(|p| p.0).collect();
-    let typical = median(&moved);
-    let line = |pts: &[&(f64, f64)]| -> Option<(f64, f64)> {
-        let n = pts.len() as f64;
-        let (mx, my) = pts
-            .iter()
-            .fold((0.0, 0.0), |(a, b), p| (a + p.0 / n, b + p.1 / n));
-        let (sxx, sxy) = pts.iter().fold((0.0, 0.0), |(a, b), p| {
-            (a + (p.0 - mx) * (p.0 - mx), b + (p.0 - mx) * (p.1 - my))
-        });
-        (sxx > 1e-9 * n).then(|| (sxy / sxx, my - sxy / sxx * mx))
-    };
-    let all: Vec<&(f64, f64)> = pts.iter().collect();
-    let Some((b, a)) = line(&all) else {
-        return (0.0, typical);
-    };
-    let res: Vec<f64> = pts.iter().map(|p| p.1 - a - b * p.0).collect();
-    let (m, sd) = (median(&res), robust_sigma(res.iter().copied()));
-    let kept: Vec<&(f64, f64)> = pts
-        .iter()
-        .zip(&res)
-        .filter(|(_, r)| (*r - m).abs() <= RIDERS_LAW_TRIM * sd)
-        .map(|(p, _)| p)
-        .collect();
-    let b = line(&kept).map_or(b, |(b, _)| b);
-    (b.max(0.0), typical)
-}
-
 impl DoorReference {
-    /// A cycle's duration at the training's typical load moved: d − b·(moved − typical), the
-    /// duration itself when its load moved is not known.
-    pub fn at_typical_load(&self, c: &DoorCycle) -> f64 {
-        if c.moved_pct.is_finite() {
-            c.duration_s - self.s_per_moved_pct * (c.moved_pct - self.typical_moved_pct)
-        } else {
-            c.duration_s
-        }
-    }
-
     /// The door check's reference from healthy `cycles` over `span_days` days at step
     /// `step_s`; `None` with fewer than [`DOOR_MIN_CYCLES`] scored cycles.
     pub fn learn(
@@ -1038,25 +951,19 @@ impl DoorReference {
         if scored.len() < DOOR_MIN_CYCLES || span_days.is_nan() || span_days <= 0.0 {
             return None;
         }
-        let (s_per_moved_pct, typical_moved_pct) = riders_law(&scored);
+        let d: Vec<f64> = scored.iter().map(|c| c.duration_s).collect();
+        let reopen = scored.iter().filter(|c| c.reopening).count() as f64 / scored.len() as f64;
         let mut r = DoorReference {
-            median_s: 0.0,
-            sigma_s: 1.0,
-            reopen_rate: REOPEN_RATE_FLOOR,
+            median_s: median(&d),
+            sigma_s: robust_sigma(d.iter().copied()).max(step_s),
+            reopen_rate: reopen.max(REOPEN_RATE_FLOOR),
             score_mean: [0.0; 2],
             score_sd: [1.0; 2],
             wander: [DOOR_WANDER_FLOOR; 2],
             h: [[1.0; N_SIZES]; 2],
             cycles: scored.len() as u64,
             cycles_per_day: scored.len() as f64 / span_days,
-            s_per_moved_pct,
-            typical_moved_pct,
         };
-        let d: Vec<f64> = scored.iter().map(|c| r.at_typical_load(c)).collect();
-        r.median_s = median(&d);
-        r.sigma_s = robust_sigma(d.iter().copied()).max(step_s);
-        let reopen = scored.iter().filter(|c| c.reopening).count() as f64 / scored.len() as f64;
-        r.reopen_rate = reopen.max(REOPEN_RATE_FLOOR);
         let raw: Vec<[f64; 2]> = scored.iter().map(|c| raw_scores(&r, c)).collect();
         for k in 0..2 {
             let n = raw.len() as f64;
@@ -1169,19 +1076,12 @@ mod tests {
             })
             .collect();
         for (i, (v, d)) in pattern.iter().enumerate() {
-            // Riders of 30 % of rated load board during the first opening.
-            let x = Sample {
-                load: if i >= 10 { 30.0 } else { 0.0 },
-                ..sample(i as f64, *v, *d, 1.0)
-            };
-            if let Some(c) = tr.push(&x, 1.0, 0.05, None) {
+            if let Some(c) = tr.push(&sample(i as f64, *v, *d, 1.0), 1.0, 0.05, None) {
                 cycles.push(c);
             }
         }
         assert_eq!(cycles.len(), 3, "{cycles:?}");
         assert_eq!(cycles[0].duration_s, 10.0);
-        let moved: Vec<f64> = cycles.iter().map(|c| c.moved_pct).collect();
-        assert_eq!(moved, [30.0, 0.0, 0.0]);
         assert!(!cycles[0].reopening && cycles[1].reopening && !cycles[2].reopening);
         let u = tr.days.back().unwrap();
         assert_eq!((u.door_cycles, u.reopenings), (3, 1));
@@ -1282,7 +1182,6 @@ mod tests {
                 start: f64::from(i) * 120.0,
                 duration_s: (10.0 + 2.0 * rng.normal()).round().max(4.0),
                 reopening: rng.chance(0.03),
-                moved_pct: f64::NAN,
             })
             .collect();
         let r = DoorReference::learn(&healthy, 1.0, 3000.0 * 120.0 / 86_400.0, 1.0).unwrap();
@@ -1295,77 +1194,11 @@ mod tests {
             start: 0.0,
             duration_s: 13.0,
             reopening: false,
-            moved_pct: f64::NAN,
         };
         let n = (0..2000)
             .position(|_| check.push(&r, scores(&r, &slow)) == Some(true))
             .expect("a door 3 s slower raises the advisory");
         assert!(n < 500, "{n} cycles");
         assert!(DoorReference::learn(&healthy[..10], 1.0, 1.0, 1.0).is_none());
-    }
-
-    /// Healthy cycles of a door that stays open 6 s plus 1.2 s per rider (75 kg on a 1000 kg
-    /// car: 7.5 % of rated per rider), over days whose evening hour is busier than any of
-    /// the training's: groups of 4-8 riders instead of 0-4.
-    fn riders_cycles(rng: &mut Rng, days: usize, busiest: f64) -> Vec<DoorCycle> {
-        let mut out = Vec::new();
-        for day in 0..days {
-            for k in 0..300 {
-                let t = day as f64 * 86_400.0 + 8.0 * 3600.0 + f64::from(k) * 120.0;
-                let evening = k >= 270;
-                let riders = if evening {
-                    (busiest + 4.0 * rng.uniform(0.0, 1.0)).floor()
-                } else {
-                    (5.0 * rng.uniform(0.0, 1.0)).floor()
-                };
-                out.push(DoorCycle {
-                    start: t,
-                    duration_s: (6.0 + 1.2 * riders + 1.0 * rng.normal()).round().max(2.0),
-                    reopening: false,
-                    moved_pct: (7.5 * riders + 0.7 * rng.normal()).abs(),
-                });
-            }
-        }
-        out
-    }
-
-    #[test]
-    fn a_busier_hour_than_the_training_saw_is_no_door_advisory_but_a_slow_door_is() {
-        let mut rng = Rng::new(11);
-        let training = riders_cycles(&mut rng, 7, 0.0);
-        let r = DoorReference::learn(&training, 1.0, 7.0, 1.0).unwrap();
-        // 1.2 s per 7.5 %: 0.16 s per percent.
-        assert!((r.s_per_moved_pct - 0.16).abs() < 0.02, "{r:?}");
-        let raised = |cycles: &[DoorCycle], r: &DoorReference| {
-            let mut check = DoorCheck::default();
-            cycles
-                .iter()
-                .any(|c| check.push(r, scores(r, c)) == Some(true))
-        };
-        // A month whose evenings bring 4-8 riders per stop.
-        let busy = riders_cycles(&mut rng, 30, 4.0);
-        assert!(!raised(&busy, &r), "riders are not a door fault");
-        let unread: Vec<DoorCycle> = training
-            .iter()
-            .map(|c| DoorCycle {
-                moved_pct: f64::NAN,
-                ..*c
-            })
-            .collect();
-        let blind = DoorReference::learn(&unread, 1.0, 7.0, 1.0).unwrap();
-        assert_eq!(blind.s_per_moved_pct, 0.0);
-        assert!(
-            raised(&busy, &blind),
-            "without the riders law the busy evenings read as a slow door"
-        );
-        // The same month with a door 2 s slower on every cycle.
-        let slow: Vec<DoorCycle> = busy
-            .iter()
-            .map(|c| DoorCycle {
-                duration_s: c.duration_s + 2.0,
-                ..*c
-            })
-            .collect();
-        assert!(raised(&slow, &r), "a door 2 s slower raises the advisory");
     }
 }

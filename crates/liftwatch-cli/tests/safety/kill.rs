@@ -208,12 +208,14 @@ fn fault_round(model: &Path, chunks: &[PathBuf], dir: &Path, reference: &Path) {
 fn killed_runs_retried_give_the_same_bytes_as_clean_runs() {
     let fx = fixture();
     let dir = Dir::new("kill");
-    // Lowered risk thresholds, so that the healthy log changes level and the events file has
-    // lines to lose.
+    // Lowered risk thresholds and sequential thresholds (the machine's level follows both),
+    // so that the healthy log changes level and the events file has lines to lose whatever
+    // the door check makes of this log.
     let mut m = model_json();
     m["risk"]["advisory"] = 1.0.into();
     m["risk"]["alarm"] = 3.0.into();
     m["risk"]["advisory_modes"] = serde_json::json!([1.0, 1.0, 1.0]);
+    m["risk"]["sequential"]["h"] = serde_json::json!([[2.0, 2.0], [2.0, 2.0], [2.0, 2.0]]);
     let model = dir.path("model.json");
     write_json(&model, &m);
 

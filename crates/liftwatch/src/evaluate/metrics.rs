@@ -28,6 +28,7 @@ use crate::error::{Error, Result};
 use crate::ingest::Signal;
 use crate::mode::{FaultMode, MACHINE_MODES};
 use crate::monitor::{Monitor, MonitorRow};
+use crate::operation::OperationEvent;
 use crate::sample::Sample;
 use crate::sim::logger::RawAligner;
 use crate::sim::{self, SimSink, TruthRow};
@@ -68,6 +69,10 @@ pub struct MethodResult {
     /// modes at detection, whose truth is no change.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub leak_z: Option<f64>,
+    /// liftwatch only: door advisories raised over the whole run. The suite's doors are
+    /// healthy throughout, so every one is a nuisance.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub door_advisories: Option<usize>,
     /// liftwatch only: every event of the run (level changes, mode named, evidence), so that
     /// a false advisory or a wrong mode in the table can be read back in `evaluation.json`.
     #[serde(skip_serializing_if = "Vec::is_empty")]
@@ -120,6 +125,7 @@ impl Metrics<'_> {
             drift_z: None,
             drift_z_alarm: None,
             leak_z: None,
+            door_advisories: None,
             events: Vec::new(),
         }
     }
@@ -155,6 +161,7 @@ impl Metrics<'_> {
             level = e.level;
         }
         let mut r = self.result("liftwatch", false_signals, detected);
+        r.door_advisories = Some(self.sink.door_advisories);
         if self.truth.is_some() {
             r.mode = mode;
             r.mode_correct = mode.map(|m| {
@@ -285,6 +292,8 @@ pub(super) struct CaseSink {
     pub(super) thr_trips: Vec<TripSummary>,
     /// Events of the liftwatch monitor.
     pub(super) events: Vec<Event>,
+    /// Door advisories the liftwatch monitor raised.
+    pub(super) door_advisories: usize,
     /// Times the threshold method's alarm switched on.
     pub(super) thr_activations: Vec<f64>,
     pub(super) thr_prev: Level,
@@ -297,6 +306,9 @@ impl CaseSink {
     fn pinn_row(&mut self, r: &MonitorRow) {
         if let Some(e) = r.event {
             self.events.push(e);
+        }
+        if let Some(OperationEvent::Door { raised: true, .. }) = r.operation {
+            self.door_advisories += 1;
         }
         self.trips.extend(self.seg_pinn.push(r));
     }

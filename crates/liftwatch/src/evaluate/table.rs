@@ -2,7 +2,7 @@
 //! signals per method), then one per method and true mode with the aggregates.
 
 use super::metrics::MethodResult;
-use super::Evaluation;
+use super::{Evaluation, YEAR_DAYS};
 use crate::mode::FaultMode;
 use crate::sim::truth_name;
 
@@ -103,6 +103,18 @@ pub fn table(ev: &Evaluation) -> String {
             }
         ));
     }
+    let (doors, days) = ev.cases.iter().fold((0, 0.0), |(n, d), c| {
+        let door = c
+            .methods
+            .iter()
+            .find_map(|m| m.door_advisories)
+            .unwrap_or(0);
+        (n + door, d + c.case.days)
+    });
+    s.push_str(&format!(
+        "\nliftwatch door advisories (every door of the suite is healthy): {doors} in {:.2} elevator-years of runs\n",
+        days / YEAR_DAYS
+    ));
     s.push_str(
         "\nd: delay from onset (days); σ: true severity at detection (1 = the mode's default effect); \
          fl: threshold activations (per trip) before its alarm holds for 20 trips; \

@@ -49,6 +49,9 @@ fn strong_fault_is_detected_and_healthy_run_stays_quiet() {
         "{:?}",
         method(&h, "liftwatch")
     );
+    // The doors are healthy too: liftwatch reports its door advisories, the charts have none.
+    assert_eq!(method(&h, "liftwatch").door_advisories, Some(0));
+    assert_eq!(method(&h, "cusum").door_advisories, None);
     for name in ["liftwatch", "cusum", "ewma"] {
         let m = method(&h, name);
         assert!(

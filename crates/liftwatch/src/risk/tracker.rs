@@ -135,10 +135,25 @@ pub struct TripAssessment {
     pub decision: Decision,
 }
 
+/// θ̂ of the regression as the last trip left it: the next trip's prediction error needs
+/// exactly that estimate, and keeping it saves one 3×3 inversion per trip. Not state: a
+/// resumed tracker recomputes it from the same sums, and two trackers are equal whatever
+/// their memo holds.
+#[derive(Clone, Copy, Debug, Default)]
+struct Memo(Option<[f64; N_MODES]>);
+
+impl PartialEq for Memo {
+    fn eq(&self, _: &Self) -> bool {
+        true
+    }
+}
+
 /// The risk state of one elevator: re-identification, accumulators and the last assessment.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct RiskTracker {
     rls: Rls,
+    #[serde(skip)]
+    theta: Memo,
     #[serde(with = "exact")]
     s2: f64,
     combined: Accumulator,
@@ -156,6 +171,7 @@ impl RiskTracker {
     pub fn new(cfg: &RiskConfig) -> Self {
         RiskTracker {
             rls: Rls::with_prior(cfg),
+            theta: Memo::default(),
             s2: cfg.prior_s2,
             combined: Accumulator::default(),
             modes: [Accumulator::default(); N_MODES],
@@ -170,7 +186,11 @@ impl RiskTracker {
         let forget = cfg.forgetting();
         // The regression residual variance, tracked with the same horizon, from the error
         // of the estimate before this trip (a prediction error, so a fault inflates it late).
-        if let Some((theta, _)) = self.rls.estimate(1.0) {
+        let before = match self.theta.0 {
+            Some(theta) => Some(theta),
+            None => self.rls.estimate(1.0).map(|(theta, _)| theta),
+        };
+        if let Some(theta) = before {
             self.s2 = forget * self.s2 + (1.0 - forget) * t.fit_error(&theta);
         }
         self.rls.update(t, forget);
@@ -186,7 +206,9 @@ impl RiskTracker {
         let mut c_modes = [0.0; N_MODES];
         let a = &mut self.last;
         a.e_trip = e_trip;
-        if let Some((theta, var)) = self.rls.estimate(self.s2) {
+        let estimate = self.rls.estimate(self.s2);
+        self.theta = Memo(estimate.map(|(theta, _)| theta));
+        if let Some((theta, var)) = estimate {
             for m in 0..N_MODES {
                 a.drift[m] = theta[m] - cfg.healthy_coef[m];
                 a.drift_se[m] = var[m].sqrt();

@@ -199,10 +199,7 @@ impl FeatureTracker {
         } else {
             f64::NAN
         };
-        // A new standstill begins when the sample before this one was not itself at rest.
-        let thr_still = 0.2 * thr;
-        let new_stop = !self.cur.is_some_and(|c| c.speed <= thr_still);
-        self.update_load_reference(speed, load, door, x.time, new_stop);
+        self.update_load_reference(speed, load, door, x.time);
         Pre {
             time: x.time,
             speed,
@@ -246,22 +243,17 @@ impl FeatureTracker {
     /// Updates the load reference: the last standstill reading and the running mean of
     /// door-closed standstill readings, restarted whenever the door is open. With the door
     /// signal missing (a dropout, or a log without it) nothing says when riders changed, so
-    /// the mean restarts at each new standstill (`new_stop`) and at each step of the reading
-    /// beyond [`LOAD_STEP_PCT`]: without that, one mean ran across several stops and held a
-    /// trip's λ at a quarter of its load.
-    fn update_load_reference(
-        &mut self,
-        speed: f64,
-        load: f64,
-        door: Door,
-        time: f64,
-        new_stop: bool,
-    ) {
+    /// the mean restarts at each new standstill (the sample before this one, still held in
+    /// `cur`, was not at rest) and at each step of the reading beyond [`LOAD_STEP_PCT`]:
+    /// without that, one mean ran across several stops and held a trip's λ at a quarter of
+    /// its load.
+    fn update_load_reference(&mut self, speed: f64, load: f64, door: Door, time: f64) {
         // The reference: readings at true standstill (well below the motion threshold, so not
         // the first instant of a start) with the door not known to be open; an open door
         // means the load is changing and the mean restarts.
-        let still =
-            speed.is_finite() && speed <= 0.2 * self.cfg.moving_threshold_mps && load.is_finite();
+        let rest_speed = 0.2 * self.cfg.moving_threshold_mps;
+        let still = speed.is_finite() && speed <= rest_speed && load.is_finite();
+        let new_stop = !self.cur.is_some_and(|c| c.speed <= rest_speed);
         if still {
             self.rest_load = load;
             self.rest_load_time = time;

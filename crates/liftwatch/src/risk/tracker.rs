@@ -186,10 +186,10 @@ impl RiskTracker {
         let forget = cfg.forgetting();
         // The regression residual variance, tracked with the same horizon, from the error
         // of the estimate before this trip (a prediction error, so a fault inflates it late).
-        let before = match self.theta.0 {
-            Some(theta) => Some(theta),
-            None => self.rls.estimate(1.0).map(|(theta, _)| theta),
-        };
+        let before = self
+            .theta
+            .0
+            .or_else(|| self.rls.estimate(1.0).map(|(theta, _)| theta));
         if let Some(theta) = before {
             self.s2 = forget * self.s2 + (1.0 - forget) * t.fit_error(&theta);
         }

@@ -72,7 +72,8 @@ mod tracker;
 
 pub use evidence::{
     friction_reference, heating_reference, signature, trip_evidence, DriftScale, HeatEvidence,
-    Heating, TripAccumulator, TripEvidence, Winding, DEFAULT_WINDING_TAU_S, HEAT_LAG, N_HEAT,
+    HeatInput, Heating, TripAccumulator, TripEvidence, Winding, DEFAULT_WINDING_TAU_S, HEAT_LAG,
+    N_HEAT,
 };
 pub(crate) use evidence::{spd_inverse, unpack, PACKED_DIAG};
 pub use sequential::{Decision, Sequential, SequentialConfig};

@@ -79,8 +79,15 @@ fn trips_of(
     let mut t = t0;
     let sigma = model.scales.sigma_u_v;
     let friction = friction_reference(model);
+    // The car stands between trips: a row each second, as an aligned log has them.
+    let mut idle_from = t0;
     while t < t0 + days * 86_400.0 {
         t += rng.uniform(60.0, 400.0);
+        let mut idle = idle_from;
+        while idle < t {
+            heating.advance(basis_tau_s, idle, 0.0);
+            idle += 1.0;
+        }
         let s = if rng.uniform(0.0, 1.0) < 0.5 {
             1.0
         } else {
@@ -100,6 +107,7 @@ fn trips_of(
             (0.5, -0.8, Phase::Decelerating),
         ])
         .collect();
+        let profile_len = profile.len();
         for (i, (speed, acc_mag, phase)) in profile.into_iter().enumerate() {
             let time = t + i as f64;
             let mut x = row(model, time, s * speed, lambda, s * acc_mag, 0.0);
@@ -107,7 +115,13 @@ fn trips_of(
             let p = model.predict(&x);
             let sig = signature(model, friction, &x, p.f_pred);
             let h = heating.advance_row((f_ref, basis_tau_s), &x, Some(&p));
-            let keep = (-(time - winding.1) / 2700.0).exp();
+            // The true winding cools while the car stands, and takes each sample's load
+            // over the second before it.
+            let gap = time - winding.1;
+            if gap > 1.0 {
+                winding.0 *= (-(gap - 1.0) / 2700.0).exp();
+            }
+            let keep = (-gap.min(1.0) / 2700.0).exp();
             let keep = if keep.is_finite() { keep } else { 0.0 };
             winding = (
                 keep * winding.0 + (1.0 - keep) * (p.f_pred / f_ref).powi(2),
@@ -122,6 +136,7 @@ fn trips_of(
             acc.push(model, friction, &x, (&p, &r), h);
         }
         out.extend(acc.finish(true));
+        idle_from = t + profile_len as f64;
         t += 20.0;
     }
     out
@@ -145,7 +160,9 @@ fn the_winding_heats_and_cools_with_its_time_constant() {
     assert!((cold.h - (1.0 - (-1.0f64).exp())).abs() < 1e-3, "{cold:?}");
     // Standing still it cools by e in τ.
     let warm = cold.h;
-    cold.advance(tau, 2.0 * tau, 0.0);
+    for s in tau as u32 + 1..=2 * tau as u32 {
+        cold.advance(tau, f64::from(s), 0.0);
+    }
     assert!((cold.h - warm / std::f64::consts::E).abs() < 1e-9);
     // The daily harmonic is the phase of the day: at 06:00 the sine's peak.
     let b = cold.advance(tau, 10.0 * 86_400.0 + 6.0 * 3600.0, 0.0);
@@ -158,6 +175,51 @@ fn the_winding_heats_and_cools_with_its_time_constant() {
     cold.advance(tau, 0.0, 5.0);
     cold.advance(tau, f64::NAN, 5.0);
     assert_eq!(cold, before);
+}
+
+#[test]
+fn a_dropout_in_a_busy_hour_does_not_cool_the_winding() {
+    // A busy hour: 40 s trips at (F/F_ref)² = 0.5 with 20 s stops, for an hour and a half.
+    // Minutes 40-53 lose the load cell (the force of the moving seconds is unknown), minutes
+    // 60-70 every channel (whether the car moves is unknown).
+    let tau = 2100.0;
+    let busy = |s: u32| s % 60 < 40;
+    let (mut known, mut blind, mut as_rest) =
+        (Heating::default(), Heating::default(), Heating::default());
+    let (mut worst, mut worst_rest) = (0.0f64, 0.0f64);
+    for s in 0..5400u32 {
+        let t = f64::from(s);
+        let truth = if busy(s) {
+            HeatInput::Moving(0.5)
+        } else {
+            HeatInput::Rest
+        };
+        let seen = match s {
+            2400..=3180 if busy(s) => HeatInput::MovingUnknown,
+            3600..=4200 => HeatInput::Unknown,
+            _ => truth,
+        };
+        known.advance_input(tau, t, truth);
+        blind.advance_input(tau, t, seen);
+        // What the lag did before: an unknown sample as a car at rest.
+        let old = match seen {
+            HeatInput::MovingUnknown | HeatInput::Unknown => HeatInput::Rest,
+            i => i,
+        };
+        as_rest.advance_input(tau, t, old);
+        worst = worst.max((blind.h - known.h).abs() / known.h);
+        worst_rest = worst_rest.max((as_rest.h - known.h).abs() / known.h);
+    }
+    assert!(worst < 0.05, "H off by {:.1} % at worst", 100.0 * worst);
+    assert!(
+        worst_rest > 0.2,
+        "the old lag should cool by a fifth or more: {:.1} %",
+        100.0 * worst_rest
+    );
+    // A log with three hours missing altogether holds H across them.
+    let h = known.h;
+    known.advance_input(tau, 5400.0 + 3.0 * 3600.0, HeatInput::Moving(0.5));
+    assert!((known.h - h).abs() < 0.01 * h, "{} against {h}", known.h);
 }
 
 #[test]

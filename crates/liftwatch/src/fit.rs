@@ -13,8 +13,8 @@
 
 use crate::baseline::BaselineLimits;
 use crate::calibrate::{
-    calibrate, winding_time_constant, CalibrationReport, CalibrationSettings, ENOUGH_TRAINING_DAYS,
-    ENOUGH_TRAINING_HOURS,
+    calibrate, fit_error_along_signatures, winding_time_constant, CalibrationReport,
+    CalibrationSettings, ENOUGH_TRAINING_DAYS, ENOUGH_TRAINING_HOURS,
 };
 use crate::elevator::Elevator;
 use crate::error::Result;
@@ -22,7 +22,7 @@ use crate::features::{FeatureConfig, Features};
 use crate::model::train::{self, TrainPoint};
 use crate::model::{FitSummary, HybridModel, PhysParams, TrainConfig};
 use crate::operation::OperationReference;
-use crate::risk::{trip_evidence, RiskConfig, TripEvidence};
+use crate::risk::{trip_evidence, RiskConfig, TripEvidence, N_MODES};
 use crate::sample::AlignedSeries;
 use crate::sensor::SensorLimits;
 
@@ -144,7 +144,10 @@ pub fn fit_with(
     }
     let (tau_s, healthy_trips) =
         winding_time_constant(&mut |tau| trip_evidence(&hybrid, &features.rows, tau));
-    let mut calibrated = calibrate(&healthy_trips, tau_s, calibration)?;
+    let fit_error = trained.covariance.as_ref().map_or([0.0; N_MODES], |cov| {
+        fit_error_along_signatures(&hybrid, &features.rows, cov)
+    });
+    let mut calibrated = calibrate(&healthy_trips, tau_s, &fit_error, calibration)?;
     calibrated
         .sensor
         .calibrate_load_zero(&series.samples, feature_cfg.moving_threshold_mps);

@@ -33,6 +33,7 @@ use serde::{Deserialize, Serialize};
 use crate::elevator::Elevator;
 use crate::error::{Error, Result};
 use crate::features::FeatureRow;
+use crate::linalg::SquareMatrix;
 use crate::model::loss::{LossStats, LossWeights, Objective, Obs, ParamMap, Prior, N_UNKNOWNS};
 use crate::model::net::ResidualNet;
 use crate::model::optim::gauss_newton::VoltageFit;
@@ -219,6 +220,11 @@ pub struct Trained {
     pub scales: ResidualScales,
     /// Standard errors, history, warnings.
     pub summary: FitSummary,
+    /// Gauss-Newton covariance of the physical parameters (in [`PhysParams::to_array`]
+    /// order), the network held fixed; `None` when singular. What the training's own
+    /// residuals cannot show: every later sample carries the parameters' error
+    /// ([`crate::calibrate::fit_error_along_signatures`]).
+    pub covariance: Option<SquareMatrix>,
 }
 
 /// Minimum moving time (s) and trips the fit needs.
@@ -446,7 +452,8 @@ pub fn train(
     let parameters = map.theta(&x[..N_PHYS]);
     let mut net = net0;
     net.weights.copy_from_slice(&x[N_PHYS..]);
-    let (reports, warnings) = report::param_reports(data, &parameters, &net, &prior, m_r, cfg.w_p);
+    let (reports, warnings, covariance) =
+        report::param_reports(data, &parameters, &net, &prior, m_r, cfg.w_p);
     let scales = healthy_scales(data, &parameters, &net, m_r);
     let n_moving = data.iter().filter(|o| o.s != 0).count();
     let summary = FitSummary {
@@ -466,6 +473,7 @@ pub fn train(
         net,
         scales,
         summary,
+        covariance,
     })
 }
 

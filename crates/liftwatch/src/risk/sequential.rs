@@ -10,8 +10,9 @@
 //! one CUSUM per mode m and size δ = ν_j·se_m         se_m = s_m/√(mean info_m): one trip's SE
 //!   u = clip(score_m/(s_m·√info_m), ±3),  ν = δ·√info_m/s_m
 //!   smallest size: score_m − z·se0_m·info_m in place of score_m
-//!                                                   se0_m: θ0's error as a new day's level,
-//!                                                   z = REFERENCE_Z
+//!                                                   se0_m: θ0's error as a new day's level
+//!                                                   (the training's day spread and the fitted
+//!                                                   parameters' own error), z = REFERENCE_Z
 //!   G ← max(0, G + ν·u − ν²/2)                     log-likelihood ratio of a drift δ along x_m
 //!   a CUSUM at 0 forgets its window; above 0 it sums the window's score (3) and x·xᵀ (6)
 //! crossing: G ≥ h_mj                                  h calibrated (crate::calibrate)
@@ -26,11 +27,12 @@
 //! drift   = the window's level now: θ + β·τ_end from Σ over the window of
 //!           (1, τ)ᵀ(1, τ) ⊗ x·xᵀ · (θ, β) = Σ (1, τ) ⊗ score,  τ = days since the window began
 //!           (all three signatures jointly; W⁻¹·S, the window's mean, when the slope is not
-//!           determined), SE² = (var of θ + β·τ_end)·max s² + wander²;
+//!           determined), SE² = (var of θ + β·τ_end)·max s² + wander² + se0²;
 //!           the named mode's own drift from its signature alone (the same line, 2×2),
-//!           SE² = var·s²_m + wander²_m; the other two jointly on what it leaves of the
+//!           SE² = var·s²_m + wander²_m + se0²_m; the other two jointly on what it leaves of the
 //!           window's mean, S − W·e_m·S_m/W_mm
-//!                                                   wander: healthy sd between blocks of 50 trips
+//!                                                   wander: healthy sd between blocks of 50 trips;
+//!                                                   se0: θ0's error, as in the smallest size
 //! ```
 //!
 //! Why CUSUM beside the accumulated risk R: R compresses each trip's evidence by ln(1 + z)
@@ -118,10 +120,12 @@ pub struct SequentialConfig {
     pub wander: [f64; N_MODES],
     /// Standard error of θ0 as the healthy level of a day the training did not see, per mode
     /// (coefficient units): the noise of the pooled estimate plus the spread between whole
-    /// days over their number. A CUSUM counts only what a trip shows beyond
-    /// [`REFERENCE_Z`] of it, so an elevator whose healthy level sits a little off the
-    /// training's (three days cannot pin it) does not pile up a false change over weeks.
-    /// 0 in models fitted before it was kept, which then behave as before.
+    /// days over their number, and the fitted parameters' own error, which the training's
+    /// residuals cannot show ([`crate::calibrate::fit_error_along_signatures`]). A CUSUM
+    /// counts only what a trip shows beyond [`REFERENCE_Z`] of it, so an elevator whose
+    /// healthy level sits a little off the training's (three days cannot pin it) does not
+    /// pile up a false change over weeks; every drift's standard error includes it. 0 in
+    /// models fitted before it was kept, which then behave as before.
     #[serde(default)]
     pub reference_se: [f64; N_MODES],
     /// The load-cell zero's healthy reference, for the isolation; `None` in models fitted
@@ -191,6 +195,14 @@ pub(crate) const DAY_S: f64 = 86_400.0;
 pub const WANDER_BLOCK_TRIPS: usize = 50;
 
 impl SequentialConfig {
+    /// What no number of a window's trips averages away from its drift's variance, mode `m`
+    /// (coefficient units²): the healthy wander between blocks of trips, and the error of θ0
+    /// itself as the level of a period after the training ([`SequentialConfig::reference_se`]),
+    /// which every drift is measured from.
+    pub fn floor_var(&self, m: usize) -> f64 {
+        self.wander[m] * self.wander[m] + self.reference_se[m] * self.reference_se[m]
+    }
+
     /// δ of mode `m`, size `j`, in coefficient units.
     pub fn delta(&self, m: usize, j: usize) -> f64 {
         SIZES[j] * (self.s2[m] / self.info[m]).sqrt()
@@ -651,10 +663,11 @@ fn brake_beyond_friction(cfg: &SequentialConfig, c: &Cusum, w: &[[f64; N_MODES];
 /// Joint estimate of the three drifts on a window, now (its line's level at the last trip)
 /// or, when the window's time does not determine a slope, its mean; standard errors from the
 /// healthy per-mode noise (the largest of the three s², the conservative choice for a joint
-/// fit) and the healthy wander of each coefficient.
+/// fit), the healthy wander of each coefficient and θ0's own error
+/// ([`SequentialConfig::floor_var`]).
 fn window_drift(cfg: &SequentialConfig, c: &Cusum) -> ([f64; N_MODES], [f64; N_MODES]) {
     let s2 = cfg.s2.iter().fold(0.0f64, |a, &b| a.max(b));
-    let se = |var: f64, m: usize| (s2 * var + cfg.wander[m] * cfg.wander[m]).sqrt();
+    let se = |var: f64, m: usize| (s2 * var + cfg.floor_var(m)).sqrt();
     if let Some(now) = c.slope.as_ref().and_then(|sl| line_now(c, sl)) {
         return (now.0, std::array::from_fn(|m| se(now.1[m], m)));
     }
@@ -677,7 +690,7 @@ fn window_drift(cfg: &SequentialConfig, c: &Cusum) -> ([f64; N_MODES], [f64; N_M
 fn alone_drift(cfg: &SequentialConfig, c: &Cusum, m: usize) -> (f64, f64) {
     let k = PACKED_DIAG[m];
     let (a, s) = (c.w[k], c.s[m]);
-    let se = |var: f64| (cfg.s2[m] * var + cfg.wander[m] * cfg.wander[m]).sqrt();
+    let se = |var: f64| (cfg.s2[m] * var + cfg.floor_var(m)).sqrt();
     if let Some(sl) = c.slope.filter(|sl| sl.tau_end >= SLOPE_MIN_DAYS) {
         let (b, d, t) = (sl.w1[k], sl.w2[k], sl.tau_end);
         let det = a * d - b * b;
@@ -719,7 +732,7 @@ fn remainder_drifts(cfg: &SequentialConfig, c: &Cusum, m: usize) -> Option<[(usi
     let di = (w[j][j] * ri - w[i][j] * rj) / det;
     let dj = (w[i][i] * rj - w[i][j] * ri) / det;
     let s2 = cfg.s2.iter().fold(0.0f64, |a, &b| a.max(b));
-    let se = |var: f64, k: usize| (s2 * var + cfg.wander[k] * cfg.wander[k]).sqrt();
+    let se = |var: f64, k: usize| (s2 * var + cfg.floor_var(k)).sqrt();
     Some([(i, di, se(w[j][j] / det, i)), (j, dj, se(w[i][i] / det, j))])
 }
 

@@ -74,7 +74,8 @@ pub struct FitSummary {
 }
 
 /// Standard errors from the Gauss-Newton covariance of the voltage equation at the final θ
-/// with the network held fixed, and which parameters the data determined.
+/// with the network held fixed, which parameters the data determined, and the covariance
+/// itself (`None` when it is singular).
 pub(super) fn param_reports(
     data: &[Obs],
     p: &PhysParams,
@@ -82,7 +83,7 @@ pub(super) fn param_reports(
     prior: &Prior,
     m_r: f64,
     w_p: f64,
-) -> (Vec<ParamReport>, Vec<String>) {
+) -> (Vec<ParamReport>, Vec<String>, Option<SquareMatrix>) {
     let sigma = robust_sigma(
         data.iter()
             .filter(|o| o.s != 0)
@@ -103,7 +104,7 @@ pub(super) fn param_reports(
     let Some(l) = h.cholesky() else {
         warnings
             .push("the parameter covariance is singular: standard errors are not available".into());
-        return (without_errors(p, prior), warnings);
+        return (without_errors(p, prior), warnings, None);
     };
     let cov = l.cholesky_inverse();
     let t = p.to_array();
@@ -137,7 +138,7 @@ pub(super) fn param_reports(
         "m0 is an apparent inertia: each 10 ms of latency of the voltage channel behind the speed channel lowers it by {:.0} kg",
         p.ke * LATENCY_STEP_S / p.kd
     ));
-    (reps, warnings)
+    (reps, warnings, Some(cov))
 }
 
 /// The reports when the covariance is singular: values and prior widths, nothing determined.

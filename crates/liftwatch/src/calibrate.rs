@@ -43,9 +43,9 @@ use crate::model::HybridModel;
 use crate::residual::PredictionCache;
 use crate::risk::sequential::{DAY_S, N_SIZES};
 use crate::risk::{
-    excess, friction_reference, signature, spd_inverse, unpack, RiskConfig, RiskTracker, Rls,
-    SequentialConfig, TripEvidence, Winding, HEAT_LAG, MAX_HEATING, MAX_WINDING_TAU_S,
-    MIN_WINDING_TAU_S, N_HEAT, PACKED_DIAG,
+    excess, friction_reference, signature, unpack, RiskConfig, RiskTracker, Rls, SequentialConfig,
+    TripEvidence, Winding, HEAT_LAG, MAX_HEATING, MAX_WINDING_TAU_S, MIN_WINDING_TAU_S, N_HEAT,
+    PACKED_DIAG,
 };
 use crate::rng::{moving_blocks, BlockStart, Rng};
 use crate::sensor::SensorLimits;
@@ -305,7 +305,13 @@ pub fn calibrate(
     let total = (settings.years.max(0.1) * trips_per_year).ceil() as u64;
     cfg.sequential = SequentialConfig::reference(&trips, f64::INFINITY).map(|mut seq| {
         for m in 0..N_MODES {
-            seq.reference_se[m] = seq.reference_se[m].hypot(fit_error[m]);
+            // An error that is not a number is not known: the day spread alone.
+            let fit = if fit_error[m].is_finite() {
+                fit_error[m]
+            } else {
+                0.0
+            };
+            seq.reference_se[m] = seq.reference_se[m].hypot(fit);
         }
         seq
     });
@@ -366,14 +372,15 @@ pub fn calibrate(
 /// cannot see. A least-squares fit leaves its residuals orthogonal to its parameters'
 /// gradients, so along the motor signature (the gradient of Kd, scaled) the training's
 /// level is zero whatever Kd's error; a new day's residual carries −J·δθ, δθ the parameters'
-/// error, and its signature level −W⁻¹·A·δθ. δθ's covariance is the fit's Gauss-Newton
+/// error, and its level along signature m alone (as the CUSUMs and θ0's day spread read it)
+/// −A_m·δθ/W_mm. δθ's covariance is the fit's Gauss-Newton
 /// covariance C made robust to residuals that are correlated within an hour (a sandwich
 /// with the hours as clusters, as [`HourWander`] finds the hours' levels wander):
 ///
 /// ```text
 /// over the training's moving samples (weights w as in the evidence, signatures x, J = ∂U/∂θ,
 /// r = U − U_pred, σ their robust sd):
-///   W = Σ w·x·xᵀ (3×3),  A = Σ w·x·Jᵀ (3×9),  B = W⁻¹·A
+///   W_mm = Σ w·x_m²,  A = Σ w·x·Jᵀ (3×9),  B_m = A_m/W_mm
 ///   g_c = Σ over clock hour c of w·J·r,   V = G/(G − 1)·C·(Σ_c g_c·g_cᵀ)·C / σ⁴, G hours
 ///   var(level_m) = max((B·V·Bᵀ)_mm, (B·C·Bᵀ)_mm)
 /// ```
@@ -398,7 +405,10 @@ pub fn fit_error_along_signatures(
     let friction = friction_reference(model);
     let noise = INTERPOLATION_NOISE_SHARE * model.elevator.rated_voltage();
     let mut cache = PredictionCache::default();
-    let mut w_xx = [[0.0; N_MODES]; N_MODES];
+    if cov.n() != N_PHYS {
+        return none;
+    }
+    let mut w_mm = [0.0; N_MODES];
     let mut a = [[0.0; N_PHYS]; N_MODES];
     let mut meat = SquareMatrix::zeros(N_PHYS);
     let mut g = [0.0; N_PHYS];
@@ -406,7 +416,7 @@ pub fn fit_error_along_signatures(
     let mut hours = 0usize;
     let mut residuals = Vec::new();
     for x in rows {
-        if x.s == 0 || !crate::residual::applicable(x) {
+        if x.s == 0 || !crate::residual::applicable(x) || !x.time.is_finite() {
             continue;
         }
         let pred = cache.predict(model, x);
@@ -430,9 +440,7 @@ pub fn fit_error_along_signatures(
             g[k] += w * j[k] * r;
         }
         for m in 0..N_MODES {
-            for n in 0..N_MODES {
-                w_xx[m][n] += w * sig[m] * sig[n];
-            }
+            w_mm[m] += w * sig[m] * sig[m];
             for k in 0..N_PHYS {
                 a[m][k] += w * sig[m] * j[k];
             }
@@ -443,20 +451,13 @@ pub fn fit_error_along_signatures(
         hours += 1;
     }
     let sigma = robust_sigma(residuals.into_iter());
-    let packed = [
-        w_xx[0][0], w_xx[0][1], w_xx[0][2], w_xx[1][1], w_xx[1][2], w_xx[2][2],
-    ];
-    let Some(inv) = spd_inverse(&packed) else {
-        return none;
-    };
-    if sigma.is_nan() || sigma <= 0.0 {
+    if sigma.is_nan() || sigma <= 0.0 || w_mm.iter().any(|w| w.is_nan() || *w <= 0.0) {
         return none;
     }
     // B, B·C, then B·C·Bᵀ (the fit's own covariance) and (B·C)·meat·(B·C)ᵀ/σ⁴ (the
     // hours' sandwich).
-    let b: [[f64; N_PHYS]; N_MODES] = std::array::from_fn(|m| {
-        std::array::from_fn(|i| (0..N_MODES).map(|n| inv[m][n] * a[n][i]).sum())
-    });
+    let b: [[f64; N_PHYS]; N_MODES] =
+        std::array::from_fn(|m| std::array::from_fn(|i| a[m][i] / w_mm[m]));
     let bc: [[f64; N_PHYS]; N_MODES] = std::array::from_fn(|m| {
         std::array::from_fn(|k| (0..N_PHYS).map(|i| b[m][i] * cov.get(i, k)).sum())
     });
@@ -1263,8 +1264,8 @@ mod tests {
 
     #[test]
     fn the_windings_time_constant_and_heating_are_identified_and_taken_out() {
-        // A winding whose Kd rises 400 % per unit of H through a lag of 45 min, and swings ±3 % with the day (peak at 06:00): the
-        // calibration finds τ, β and the swing, and with them a heated healthy month stays
+        // A winding whose Kd rises 400 % per unit of H through a lag of 45 min, and swings
+        // ±3 % with the day (peak at 06:00): the calibration finds τ, β and the swing, and with them a heated healthy month stays
         // quiet while the same month read without them (β = 0) sees a motor change.
         let m = test_model();
         // The generator's cars run about one second in twenty (a quiet building), so H stays
@@ -1752,7 +1753,8 @@ mod tests {
     /// Moving rows of `hours` clock hours, 200 a hour, over speeds, loads, accelerations and
     /// floors; each hour's voltage carries a Kd offset δ_h ~ N(0, `hour_sd`) along the motor
     /// signature and noise of 1 V. Returns the rows and the model's Gauss-Newton covariance
-    /// on them (σ = 1 V, a weak ridge standing for the fit's prior).
+    /// on them (σ the residuals' robust sd, as the fit takes it; a weak ridge standing for the
+    /// fit's prior).
     fn hourly_rows(
         hours: u32,
         hour_sd: f64,
@@ -1784,14 +1786,17 @@ mod tests {
                 rows.push(x);
             }
         }
+        // As the fit builds it: the gradients over the residuals' robust sd.
         let p = &m.parameters;
+        let sigma = robust_sigma(
+            rows.iter()
+                .map(|x| x.voltage - PredictionCache::default().predict(&m, x).u_pred),
+        );
         let mut h = SquareMatrix::zeros(N_PHYS);
         for x in &rows {
             let q = PhysParams::relative_height(x.floor, m.elevator.floors);
-            h.add_outer(
-                &p.du_dtheta(x.s, x.v, x.lambda, x.a, q, m.elevator.rated_load_kg),
-                1.0,
-            );
+            let j = p.du_dtheta(x.s, x.v, x.lambda, x.a, q, m.elevator.rated_load_kg);
+            h.add_outer(&j.map(|v| v / sigma), 1.0);
         }
         for k in 0..N_PHYS {
             *h.at(k, k) += 1e-9 * h.get(k, k);

@@ -11,7 +11,8 @@
 //! winding temperature (healthy, predicted): a first-order lag of the copper losses with the
 //! winding's time constant τ (identified per elevator, [`crate::calibrate`]) and the daily
 //! cycle of the machine room around it:
-//!   H ← e^(−Δt/τ)·H + (1 − e^(−Δt/τ))·(F_pred/F_ref)²
+//!   H ← e^(−Δt/τ)·H + (1 − e^(−Δt/τ))·(F_pred/F_ref)²   Δt at most HEAT_INPUT_SPAN_S; a row
+//!                                        of unknown input adds the recent one ([`Heating`])
 //!   basis b = (H, cos ωt, sin ωt),  ω = 2π/day
 //!   x_heat,k = x_motor·b_k                the voltage of Kd·(1 + Σ β_k·b_k): copper's
 //!                                        resistance follows its temperature, the losses
@@ -289,8 +290,9 @@ pub fn heating_reference(model: &HybridModel) -> f64 {
 
 /// The longest interval a reading speaks for (s): the winding's input between two rows further
 /// apart than this (a log with hours missing, a restart) is unknown, as it is in the empty
-/// rows of a gap. Twice the aligner's default gap limit of 5 s.
-pub const HEAT_INPUT_SPAN_S: f64 = 10.0;
+/// rows of a gap. A minute: above any row step a winding's lag of 5 min to 8 h can be
+/// followed at (a 1 Hz log aligned to 1-30 s), and short against τ.
+pub const HEAT_INPUT_SPAN_S: f64 = 60.0;
 
 /// The winding-temperature state: H, a first-order lag of (F_pred/F_ref)² with the winding's
 /// time constant τ (no input while the car stands: the drive's losses at rest are small), and
@@ -299,8 +301,9 @@ pub const HEAT_INPUT_SPAN_S: f64 = 10.0;
 /// that car's load as the winding's.
 ///
 /// A sample whose input is not known does not cool the winding: a dropout of the load cell
-/// (or the floor) leaves a moving car's force unknown, and a gap of every channel (or of the
-/// speed) leaves unknown even whether the car moves. Taking such samples as a car at rest, as
+/// (or of the voltage, without which no prediction is formed) leaves a moving car's force
+/// unknown, and a gap of every channel (or of the speed) leaves unknown even whether the car
+/// moves. Taking such samples as a car at rest, as
 /// this lag once did, let the winding cool in the model while the car ran a busy lunch: after
 /// a 13-minute load dropout on a simulated 40-floor car, Kd stood 4 % above the model for
 /// half an hour and the motor CUSUM raised a false advisory. Now a moving car of unknown
@@ -327,7 +330,8 @@ pub enum HeatInput {
     Rest,
     /// The car moves with this squared relative force (F/F_ref)².
     Moving(f64),
-    /// The car moves, its force unknown (the load or the floor missing).
+    /// The car moves, its force unknown (no prediction: the load, the acceleration or the
+    /// voltage missing).
     MovingUnknown,
     /// Whether the car moves is not known (no speed).
     Unknown,
@@ -352,8 +356,11 @@ impl HeatInput {
 
 impl Heating {
     /// Advances to `time` with the squared relative force `load` = (F/F_ref)² held since the
-    /// last sample through a lag of `tau_s` (a `load` that is not finite is unknown), and
-    /// returns the basis at `time`. Time that runs backwards or is not finite holds H.
+    /// last sample (at most [`HEAT_INPUT_SPAN_S`] of it) through a lag of `tau_s`, and returns
+    /// the basis at `time`: [`Heating::advance_input`] with a car at rest for 0, moving for a
+    /// positive `load`, of unknown motion for one that is not finite (which holds H; a
+    /// `HeatInput::Moving` that is not finite is a moving car of unknown force instead). Time
+    /// that runs backwards or is not finite holds H.
     pub fn advance(&mut self, tau_s: f64, time: f64, load: f64) -> [f64; N_HEAT] {
         let input = if !load.is_finite() {
             HeatInput::Unknown
@@ -388,7 +395,13 @@ impl Heating {
                     self.moving = keep * self.moving + (1.0 - keep) * l;
                     Some(l)
                 }
-                HeatInput::Moving(_) | HeatInput::MovingUnknown => Some(self.moving),
+                // A state saved before `moving` was kept has it at 0 under a warm H: H is
+                // then the best guess of the recent input.
+                HeatInput::Moving(_) | HeatInput::MovingUnknown => Some(if self.moving > 0.0 {
+                    self.moving
+                } else {
+                    self.h
+                }),
                 HeatInput::Unknown => None,
             };
             if let Some(load) = load {

@@ -124,8 +124,10 @@ pub struct SequentialConfig {
     /// residuals cannot show ([`crate::calibrate::fit_error_along_signatures`]). A CUSUM
     /// counts only what a trip shows beyond [`REFERENCE_Z`] of it, so an elevator whose
     /// healthy level sits a little off the training's (three days cannot pin it) does not
-    /// pile up a false change over weeks; every drift's standard error includes it. 0 in
-    /// models fitted before it was kept, which then behave as before.
+    /// pile up a false change over weeks; every drift's standard error includes it
+    /// ([`SequentialConfig::floor_var`]: models fitted before the fit's error was part of it
+    /// report their drifts with this wider error too, without a refit). 0 in models fitted
+    /// before it was kept, whose CUSUMs then behave as before.
     #[serde(default)]
     pub reference_se: [f64; N_MODES],
     /// The load-cell zero's healthy reference, for the isolation; `None` in models fitted

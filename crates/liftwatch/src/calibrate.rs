@@ -403,11 +403,11 @@ pub fn fit_error_along_signatures(
     let p = &model.parameters;
     let m_r = model.elevator.rated_load_kg;
     let friction = friction_reference(model);
-    let noise = INTERPOLATION_NOISE_SHARE * model.elevator.rated_voltage();
-    let mut cache = PredictionCache::default();
     if cov.n() != N_PHYS {
         return none;
     }
+    let noise = INTERPOLATION_NOISE_SHARE * model.elevator.rated_voltage();
+    let mut cache = PredictionCache::default();
     let mut w_mm = [0.0; N_MODES];
     let mut a = [[0.0; N_PHYS]; N_MODES];
     let mut meat = SquareMatrix::zeros(N_PHYS);
@@ -461,15 +461,6 @@ pub fn fit_error_along_signatures(
     let bc: [[f64; N_PHYS]; N_MODES] = std::array::from_fn(|m| {
         std::array::from_fn(|k| (0..N_PHYS).map(|i| b[m][i] * cov.get(i, k)).sum())
     });
-    let quad = |u: &[f64; N_PHYS], mat: &SquareMatrix, v: &[f64; N_PHYS]| -> f64 {
-        (0..N_PHYS)
-            .map(|i| {
-                (0..N_PHYS)
-                    .map(|j| u[i] * mat.get(i, j) * v[j])
-                    .sum::<f64>()
-            })
-            .sum()
-    };
     // The sandwich of G hours is scaled by G/(G − 1) (its clusters' scores sum to zero) and
     // never taken below the fit's own covariance: a training of a few hours has too few
     // clusters to show their correlation, not evidence that there is none.
@@ -479,8 +470,8 @@ pub fn fit_error_along_signatures(
         0.0
     };
     std::array::from_fn(|m| {
-        let model_based: f64 = (0..N_PHYS).map(|k| bc[m][k] * b[m][k]).sum();
-        let robust = g_factor * quad(&bc[m], &meat, &bc[m]) / sigma.powi(4);
+        let model_based = cov.quad_form(&b[m]);
+        let robust = g_factor * meat.quad_form(&bc[m]) / sigma.powi(4);
         let var = model_based.max(robust);
         if var.is_finite() {
             var.max(0.0).sqrt()

@@ -35,6 +35,13 @@ impl SquareMatrix {
         &mut self.a[i * self.n + j]
     }
 
+    /// uᵀ·A·u: the variance of uᵀ·x when A is the covariance of x.
+    pub fn quad_form(&self, u: &[f64]) -> f64 {
+        (0..self.n)
+            .map(|i| u[i] * (0..self.n).map(|j| self.get(i, j) * u[j]).sum::<f64>())
+            .sum()
+    }
+
     /// Adds `w·g·gᵀ` (a rank-one update of normal equations).
     pub fn add_outer(&mut self, g: &[f64], w: f64) {
         for i in 0..self.n {

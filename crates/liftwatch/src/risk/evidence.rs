@@ -323,7 +323,7 @@ pub struct Heating {
     pub moving: f64,
 }
 
-/// What a sample tells the winding's lag ([`Heating::advance_input`]).
+/// What a sample tells the winding's lag ([`Heating::advance`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum HeatInput {
     /// The car stands: no input.
@@ -355,27 +355,11 @@ impl HeatInput {
 }
 
 impl Heating {
-    /// Advances to `time` with the squared relative force `load` = (F/F_ref)² held since the
-    /// last sample (at most [`HEAT_INPUT_SPAN_S`] of it) through a lag of `tau_s`, and returns
-    /// the basis at `time`: [`Heating::advance_input`] with a car at rest for 0, moving for a
-    /// positive `load`, of unknown motion for one that is not finite (which holds H; a
-    /// `HeatInput::Moving` that is not finite is a moving car of unknown force instead). Time
-    /// that runs backwards or is not finite holds H.
-    pub fn advance(&mut self, tau_s: f64, time: f64, load: f64) -> [f64; N_HEAT] {
-        let input = if !load.is_finite() {
-            HeatInput::Unknown
-        } else if load > 0.0 {
-            HeatInput::Moving(load)
-        } else {
-            HeatInput::Rest
-        };
-        self.advance_input(tau_s, time, input)
-    }
-
     /// Advances to `time` with `input` held since the last sample (at most
     /// [`HEAT_INPUT_SPAN_S`] of it; before that the input is unknown and holds H), and returns
-    /// the basis at `time`. Time that runs backwards or is not finite holds H.
-    pub fn advance_input(&mut self, tau_s: f64, time: f64, input: HeatInput) -> [f64; N_HEAT] {
+    /// the basis at `time` (a `Moving` force that is not finite counts as `MovingUnknown`).
+    /// Time that runs backwards or is not finite holds H.
+    pub fn advance(&mut self, tau_s: f64, time: f64, input: HeatInput) -> [f64; N_HEAT] {
         if !time.is_finite() {
             return [self.h, 0.0, 0.0];
         }
@@ -422,7 +406,7 @@ impl Heating {
         x: &FeatureRow,
         p: Option<&Prediction>,
     ) -> [f64; N_HEAT] {
-        self.advance_input(tau_s, x.time, HeatInput::of_row(f_ref, x, p))
+        self.advance(tau_s, x.time, HeatInput::of_row(f_ref, x, p))
     }
 }
 

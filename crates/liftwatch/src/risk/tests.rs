@@ -85,7 +85,7 @@ fn trips_of(
         t += rng.uniform(60.0, 400.0);
         let mut idle = idle_from;
         while idle < t {
-            heating.advance(basis_tau_s, idle, 0.0);
+            heating.advance(basis_tau_s, idle, HeatInput::Rest);
             idle += 1.0;
         }
         let s = if rng.uniform(0.0, 1.0) < 0.5 {
@@ -146,34 +146,34 @@ fn trips_of(
 fn the_winding_heats_and_cools_with_its_time_constant() {
     let tau = 2400.0;
     let mut h = Heating::default();
-    h.advance(tau, 0.0, 1.0);
+    h.advance(tau, 0.0, HeatInput::Moving(1.0));
     assert_eq!(
         h.h, 1.0,
         "the first sample finds a winding long at its load"
     );
     // A car running at the reference force: after τ the lag holds 1 − 1/e of it.
     let mut cold = Heating::default();
-    cold.advance(tau, 0.0, 0.0);
+    cold.advance(tau, 0.0, HeatInput::Rest);
     for s in 1..=tau as u32 {
-        cold.advance(tau, f64::from(s), 1.0);
+        cold.advance(tau, f64::from(s), HeatInput::Moving(1.0));
     }
     assert!((cold.h - (1.0 - (-1.0f64).exp())).abs() < 1e-3, "{cold:?}");
     // Standing still it cools by e in τ.
     let warm = cold.h;
     for s in tau as u32 + 1..=2 * tau as u32 {
-        cold.advance(tau, f64::from(s), 0.0);
+        cold.advance(tau, f64::from(s), HeatInput::Rest);
     }
     assert!((cold.h - warm / std::f64::consts::E).abs() < 1e-9);
     // The daily harmonic is the phase of the day: at 06:00 the sine's peak.
-    let b = cold.advance(tau, 10.0 * 86_400.0 + 6.0 * 3600.0, 0.0);
+    let b = cold.advance(tau, 10.0 * 86_400.0 + 6.0 * 3600.0, HeatInput::Rest);
     assert!(
         b[HEAT_LAG + 1].abs() < 1e-9 && (b[HEAT_LAG + 2] - 1.0).abs() < 1e-9,
         "{b:?}"
     );
     // Time that runs backwards or is not finite changes nothing.
     let before = cold;
-    cold.advance(tau, 0.0, 5.0);
-    cold.advance(tau, f64::NAN, 5.0);
+    cold.advance(tau, 0.0, HeatInput::Moving(5.0));
+    cold.advance(tau, f64::NAN, HeatInput::Moving(5.0));
     assert_eq!(cold, before);
 }
 
@@ -199,14 +199,14 @@ fn a_dropout_in_a_busy_hour_does_not_cool_the_winding() {
             3600..=4200 => HeatInput::Unknown,
             _ => truth,
         };
-        known.advance_input(tau, t, truth);
-        blind.advance_input(tau, t, seen);
+        known.advance(tau, t, truth);
+        blind.advance(tau, t, seen);
         // What the lag did before: an unknown sample as a car at rest.
         let old = match seen {
             HeatInput::MovingUnknown | HeatInput::Unknown => HeatInput::Rest,
             i => i,
         };
-        as_rest.advance_input(tau, t, old);
+        as_rest.advance(tau, t, old);
         worst = worst.max((blind.h - known.h).abs() / known.h);
         worst_rest = worst_rest.max((as_rest.h - known.h).abs() / known.h);
     }
@@ -219,7 +219,7 @@ fn a_dropout_in_a_busy_hour_does_not_cool_the_winding() {
     // A log with three hours missing altogether holds H across them: the row after them
     // speaks for its last minute only.
     let h = known.h;
-    known.advance_input(tau, 5400.0 + 3.0 * 3600.0, HeatInput::Moving(0.5));
+    known.advance(tau, 5400.0 + 3.0 * 3600.0, HeatInput::Moving(0.5));
     let minute = (1.0 - (-HEAT_INPUT_SPAN_S / tau).exp()) * (0.5 - h);
     assert!(
         (known.h - h - minute).abs() < 1e-12,

@@ -161,13 +161,7 @@ fn without_errors(p: &PhysParams, prior: &Prior) -> Vec<ParamReport> {
 /// The identifiable combinations: the |v| slope of the voltage up and down.
 fn combinations(p: &PhysParams, cov: &SquareMatrix) -> [ParamReport; 2] {
     let combo = |name: &str, grad: [f64; N_PHYS], value: f64| {
-        let mut var = 0.0;
-        for i in 0..N_PHYS {
-            for j in 0..N_PHYS {
-                var += grad[i] * cov.get(i, j) * grad[j];
-            }
-        }
-        let se = var.max(0.0).sqrt();
+        let se = cov.quad_form(&grad).max(0.0).sqrt();
         ParamReport {
             name: name.into(),
             unit: "V s/m".into(),

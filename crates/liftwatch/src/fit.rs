@@ -189,25 +189,31 @@ pub fn fit_with(
 }
 
 /// What a training shorter than [`ENOUGH_TRAINING_HOURS`] (a week's log) cannot promise, in
-/// two lines; none for a long enough one.
+/// two lines (three when it could not see the day's temperature cycle); none for a long
+/// enough one.
 fn short_training_notes(report: &CalibrationReport, risk: &RiskConfig) -> Vec<String> {
     if report.hours >= ENOUGH_TRAINING_HOURS {
         return Vec::new();
     }
     let days = report.hours / 24.0;
-    vec![
-        format!(
-            "short training: {:.1} h ({} healthy trips) of the {ENOUGH_TRAINING_DAYS:.0} days the calibration needs; its bootstrap resamples {}, so the advisory threshold (R {:.1}) is only as wide as these hours' own wander",
-            report.hours,
-            report.trips,
-            if days < 1.0 { "less than one day".to_string() } else { format!("{days:.1} days") },
-            risk.advisory,
-        ),
-        format!(
-            "it cannot promise its alarm budget of {} false advisories per elevator-year: days unlike these (weekends, other seasons' temperatures, other traffic) were never seen; refit on {ENOUGH_TRAINING_DAYS:.0} days or more of healthy data",
-            report.target_false_advisories_per_year
-        ),
-    ]
+    let mut notes = vec![format!(
+        "short training: {:.1} h ({} healthy trips) of the {ENOUGH_TRAINING_DAYS:.0} days the calibration needs; its bootstrap resamples {}, so the advisory threshold (R {:.1}) is only as wide as these hours' own wander",
+        report.hours,
+        report.trips,
+        if days < 1.0 { "less than one day".to_string() } else { format!("{days:.1} days") },
+        risk.advisory,
+    )];
+    if report.unseen_ambient_swing > 0.0 {
+        notes.push(format!(
+            "too short to see the day's temperature cycle: the thresholds allow for one of ±{:.1} % of Kd at a phase it could not measure, so a motor change is decided later than a longer training would",
+            100.0 * report.unseen_ambient_swing
+        ));
+    }
+    notes.push(format!(
+        "it cannot promise its alarm budget of {} false advisories per elevator-year: days unlike these (weekends, other seasons' temperatures, other traffic) were never seen; refit on {ENOUGH_TRAINING_DAYS:.0} days or more of healthy data",
+        report.target_false_advisories_per_year
+    ));
+    notes
 }
 
 impl FittedModel {

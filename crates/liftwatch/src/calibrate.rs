@@ -1293,6 +1293,38 @@ mod tests {
     }
 
     #[test]
+    fn a_calm_training_expects_hours_that_wander_farther_than_its_own() {
+        // Three days whose hours sit at Kd levels of sd 3 %, then a month of hours at 5.2 %
+        // (1.7 times): a few dozen hours measure a wander only roughly, and the bootstrap
+        // draws from the upper 95 % bound of what they measured (1.16 in sd here). With the
+        // bound the month stays below the motor thresholds (G/h 0.94); with the measured
+        // wander alone it crosses (1.10).
+        let m = test_model();
+        let level = |sd: f64, salt: u64| {
+            move |t: f64, x: &[f64; N_MODES]| {
+                let hour = (t / HOUR_S).floor() as u64;
+                sd * Rng::new(hour.wrapping_mul(0x9E37_79B9) ^ salt).normal() * x[MOTOR]
+            }
+        };
+        let training = synthetic_trips(&m, 61, 3.0, 0.0, &level(0.03, 3));
+        let settings = CalibrationSettings {
+            years: 5.0,
+            ..CalibrationSettings::default()
+        };
+        let cal = calibrate(&training, DEFAULT_WINDING_TAU_S, &NO_FIT_ERROR, &settings)
+            .expect("calibrates");
+        let bound = cal.report.hour_wander_bound;
+        let month = synthetic_trips(&m, 67, 30.0, 3.0 * DAY_S, &level(0.052, 4));
+        let worst = run(&cal.risk, &month)
+            .iter()
+            .filter(|a| a.decision.lead_signature == crate::mode::FaultMode::Motor)
+            .map(|a| a.decision.ratio)
+            .fold(0.0, f64::max);
+        assert!((1.1..1.6).contains(&bound), "bound {bound}");
+        assert!(worst < 1.0, "the month crossed: G/h = {worst}");
+    }
+
+    #[test]
     fn the_busy_hours_wander_sets_the_thresholds() {
         // Every other clock hour is busy (four times the trips) and sits at its own Kd
         // level, ±6 % (sd); the quiet hours do not wander. A CUSUM gains an hour's level once

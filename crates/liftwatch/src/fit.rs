@@ -197,7 +197,7 @@ fn short_training_notes(report: &CalibrationReport, risk: &RiskConfig) -> Vec<St
     }
     let days = report.hours / 24.0;
     let mut notes = vec![format!(
-        "short training: {:.1} h ({} healthy trips) of the {ENOUGH_TRAINING_DAYS:.0} days the calibration needs; its bootstrap resamples {}, so the advisory threshold (R {:.1}) is only as wide as these hours' own wander",
+        "short training: {:.1} h ({} healthy trips) of the {ENOUGH_TRAINING_DAYS:.0} days the calibration needs; its bootstrap resamples {}, so the advisory threshold (R {:.1}) is only as wide as these hours' own wander and its 95 % bound",
         report.hours,
         report.trips,
         if days < 1.0 { "less than one day".to_string() } else { format!("{days:.1} days") },

@@ -135,8 +135,9 @@ pub fn t_quantile(p: f64, dof: f64) -> f64 {
 
 /// The χ² quantile of `p` with `dof` degrees of freedom (any positive real), by the
 /// Wilson-Hilferty cube-root approximation: χ²_p ≈ ν·(1 − 2/(9ν) + z_p·√(2/(9ν)))³, z_p =
-/// Φ⁻¹(p); within 1.5 % of the tables for ν ≥ 5 at p = 0.05 and 0.95 (0.5 % for ν ≥ 10), and
-/// never negative.
+/// Φ⁻¹(p); within 1.6 % of the tables for ν ≥ 5 at p = 0.05 and 0.95 (0.5 % for ν ≥ 10),
+/// never negative, and low below that at p = 0.05 (7 % at ν = 3, 23 % at ν = 2), so that an
+/// upper bound made with it errs wide.
 pub fn chi_square_quantile(p: f64, dof: f64) -> f64 {
     let v = dof.max(1e-9);
     let k = 2.0 / (9.0 * v);
@@ -159,10 +160,10 @@ mod tests {
 
     #[test]
     fn chi_square_quantiles_match_the_tables() {
-        // Tables: χ²(0.05; 5) = 1.145, (0.05; 10) = 3.940, (0.05; 30) = 18.493,
+        // Tables: χ²(0.05; 5) = 1.1455, (0.05; 10) = 3.940, (0.05; 30) = 18.493,
         // (0.05; 100) = 77.929, (0.95; 10) = 18.307, (0.95; 30) = 43.773.
         for (p, dof, table) in [
-            (0.05, 5.0, 1.145),
+            (0.05, 5.0, 1.1455),
             (0.05, 10.0, 3.940),
             (0.05, 30.0, 18.493),
             (0.05, 100.0, 77.929),
@@ -170,10 +171,15 @@ mod tests {
             (0.95, 30.0, 43.773),
         ] {
             let q = chi_square_quantile(p, dof);
-            let tolerance = if dof < 10.0 { 0.015 } else { 0.005 };
+            let tolerance = if dof < 10.0 { 0.016 } else { 0.005 };
             assert!((q / table - 1.0).abs() < tolerance, "p {p}, dof {dof}: {q}");
         }
-        assert!(chi_square_quantile(0.05, 1e-3) >= 0.0);
+        // Below five degrees of freedom it is low, never high: χ²(0.05; 3) = 0.3518,
+        // (0.05; 2) = 0.1026.
+        for (dof, table) in [(3.0, 0.3518), (2.0, 0.1026)] {
+            let q = chi_square_quantile(0.05, dof);
+            assert!((0.75 * table..table).contains(&q), "dof {dof}: {q}");
+        }
     }
 
     #[test]

@@ -1069,22 +1069,21 @@ impl HourWander {
         if upper.iter().any(|x| !x.is_finite()) {
             return Self::none();
         }
+        let scale: [f64; N_MODES] = std::array::from_fn(|k| {
+            if omega[k][k] > 0.0 {
+                (upper[k] / omega[k][k]).sqrt()
+            } else {
+                0.0
+            }
+        });
         for a in 0..N_MODES {
             for b in 0..N_MODES {
-                if a != b {
-                    let scale = |k: usize| {
-                        if omega[k][k] > 0.0 {
-                            (upper[k] / omega[k][k]).sqrt()
-                        } else {
-                            0.0
-                        }
-                    };
-                    omega[a][b] *= scale(a) * scale(b);
-                }
+                omega[a][b] = if a == b {
+                    upper[a]
+                } else {
+                    omega[a][b] * scale[a] * scale[b]
+                };
             }
-        }
-        for a in 0..N_MODES {
-            omega[a][a] = upper[a];
         }
         for a in 0..N_MODES {
             for b in 0..N_MODES {
@@ -1167,11 +1166,12 @@ fn bootstrap(
         }
         // A new block is a new place on the unseen daily cycle; a new hour of service (or a
         // new block) a new hour's level.
-        if cell.map_or(true, |(j, _)| i != j + 1) {
+        let new_block = cell.map_or(true, |(j, _)| i != j + 1);
+        if new_block {
             ambient = hours.draw_ambient(&mut draw);
         }
         let hour = (trips[i].start / HOUR_S).floor();
-        if cell.map_or(true, |(j, h)| i != j + 1 || h != hour) {
+        if new_block || cell.is_some_and(|(_, h)| h != hour) {
             offset = hours.draw(&mut draw);
             offset[MOTOR_MODE] += ambient;
         }
@@ -1244,14 +1244,22 @@ mod tests {
     /// No error of the fitted parameters: the synthetic trips' model is the truth.
     const NO_FIT_ERROR: [f64; N_MODES] = [0.0; N_MODES];
 
-    /// Risk settings calibrated on eight synthetic healthy days of `model`.
+    /// Risk settings calibrated on eight synthetic healthy days of `model` (a bootstrap of
+    /// five years, for speed).
     pub(crate) fn calibrated(model: &HybridModel) -> Calibration {
+        calibrated_with(
+            model,
+            &CalibrationSettings {
+                years: 5.0,
+                ..CalibrationSettings::default()
+            },
+        )
+    }
+
+    /// The same with `settings`.
+    fn calibrated_with(model: &HybridModel, settings: &CalibrationSettings) -> Calibration {
         let healthy = synthetic_trips(model, 11, 8.0, 0.0, &|_, _| 0.0);
-        let settings = CalibrationSettings {
-            years: 5.0,
-            ..CalibrationSettings::default()
-        };
-        calibrate(&healthy, DEFAULT_WINDING_TAU_S, &NO_FIT_ERROR, &settings)
+        calibrate(&healthy, DEFAULT_WINDING_TAU_S, &NO_FIT_ERROR, settings)
             .expect("synthetic healthy trips suffice")
     }
 
@@ -1483,14 +1491,7 @@ mod tests {
         // advisory a year rests on (the helper's five years for speed hold six thresholds at
         // a 5-year maximum each, and validate at about one a year).
         let m = test_model();
-        let healthy = synthetic_trips(&m, 11, 8.0, 0.0, &|_, _| 0.0);
-        let cal = calibrate(
-            &healthy,
-            DEFAULT_WINDING_TAU_S,
-            &NO_FIT_ERROR,
-            &CalibrationSettings::default(),
-        )
-        .expect("synthetic healthy trips suffice");
+        let cal = calibrated_with(&m, &CalibrationSettings::default());
         let cfg = cal.risk;
         // Thirty new healthy days, other seed, including the ±3 % daily Kd swing.
         let trips = synthetic_trips(&m, 99, 30.0, 0.0, &|_, _| 0.0);
@@ -1984,11 +1985,9 @@ mod tests {
                     0.0,
                 );
                 x.floor = rng.uniform(1.0, 26.0).floor();
-                let f_pred = PredictionCache::default().predict(&m, &x).f_pred;
-                let sig = signature(&m, friction, &x, f_pred);
-                x.voltage = PredictionCache::default().predict(&m, &x).u_pred
-                    + delta * sig[MOTOR]
-                    + rng.normal();
+                let pred = PredictionCache::default().predict(&m, &x);
+                let sig = signature(&m, friction, &x, pred.f_pred);
+                x.voltage = pred.u_pred + delta * sig[MOTOR] + rng.normal();
                 rows.push(x);
             }
         }

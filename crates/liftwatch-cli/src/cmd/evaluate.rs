@@ -36,6 +36,14 @@ pub struct Args {
     /// Monitored span of a healthy case (days) [default: 30, quick 8].
     #[arg(long)]
     pub healthy_days: Option<f64>,
+    /// Days from onset to full severity of the linear and exponential faults [default: to
+    /// the end of the run]; 0 makes every fault a step.
+    #[arg(long)]
+    pub ramp_days: Option<f64>,
+    /// Multiplier of every fault's severity: 1 the maintenance-relevant default sizes (Kd
+    /// +10 %, friction +25 %, brake drag 0.6·F_c), 5 the large final sizes of a field bench.
+    #[arg(long, default_value_t = 1.0)]
+    pub severity_scale: f64,
     /// Worker threads; the results do not depend on it.
     #[arg(long, default_value_t = 2)]
     pub threads: usize,
@@ -58,14 +66,21 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     cfg.train_days = args.train_days;
     cfg.fault_days = args.fault_days.unwrap_or(cfg.fault_days);
     cfg.healthy_days = args.healthy_days.unwrap_or(cfg.healthy_days);
+    cfg.ramp_days = args.ramp_days;
+    cfg.severity_scale = args.severity_scale;
     let ui = Ui::new(args.ui, &[])?;
     let clock = Instant::now();
     ui.say(format_args!(
-        "evaluate: {} suite, seed {}, trainings of {} days, faults over {} days, healthy runs of {} days, {} thread(s)",
+        "evaluate: {} suite, seed {}, trainings of {} days, faults over {} days ({}, severity x{}), healthy runs of {} days, {} thread(s)",
         if args.quick { "quick" } else { "full" },
         args.seed,
         cfg.train_days,
         cfg.fault_days,
+        cfg.ramp_days.map_or_else(
+            || "ramps to the end".to_string(),
+            |d| format!("ramps over {d} days")
+        ),
+        cfg.severity_scale,
         cfg.healthy_days,
         args.threads
     ));

@@ -74,6 +74,13 @@ pub struct SuiteConfig {
     pub fault_days: f64,
     /// Monitored span of a healthy case (days).
     pub healthy_days: f64,
+    /// Days from onset to full severity of the linear and exponential degradations; None:
+    /// to the end of the run (a slow ramp that a short run sees only the start of).
+    pub ramp_days: Option<f64>,
+    /// Multiplier of every degradation's severity (1: the maintenance-relevant default
+    /// sizes of [`crate::sim::scenario`], at which the threshold method seldom fires; 5 gives
+    /// the large final sizes of a field bench, Kd +50 %).
+    pub severity_scale: f64,
     /// Worker threads (results do not depend on it).
     pub threads: usize,
 }
@@ -87,6 +94,8 @@ impl SuiteConfig {
             train_days: 7.0,
             fault_days: if quick { 8.0 } else { 25.0 },
             healthy_days: if quick { 8.0 } else { 30.0 },
+            ramp_days: None,
+            severity_scale: 1.0,
             threads: 2,
         }
     }
@@ -120,8 +129,24 @@ pub fn cases(cfg: &SuiteConfig, fleet: &[FleetElevator]) -> Result<Vec<Case>> {
             why: "every span must be positive".into(),
         });
     }
+    if !(cfg.severity_scale.is_finite() && cfg.severity_scale > 0.0) {
+        return Err(Error::InvalidConfig {
+            field: "evaluate.severity_scale",
+            why: format!("{} must be positive", cfg.severity_scale),
+        });
+    }
     let span = cfg.fault_days * DAY_S;
     let onset = 0.4 * span;
+    let full_at = match cfg.ramp_days {
+        None => span,
+        Some(d) if d.is_finite() && d >= 0.0 => onset + d * DAY_S,
+        Some(d) => {
+            return Err(Error::InvalidConfig {
+                field: "evaluate.ramp_days",
+                why: format!("{d} must be at least 0"),
+            })
+        }
+    };
     let mut out = Vec::new();
     for (ei, fe) in fleet.iter().enumerate() {
         out.push(Case {
@@ -151,6 +176,7 @@ pub fn cases(cfg: &SuiteConfig, fleet: &[FleetElevator]) -> Result<Vec<Case>> {
         };
         for &mode in modes {
             for &(ramp, sev) in &shapes {
+                let sev = sev * cfg.severity_scale;
                 out.push(Case {
                     name: format!(
                         "{} {} {} S{:.1}",
@@ -161,7 +187,7 @@ pub fn cases(cfg: &SuiteConfig, fleet: &[FleetElevator]) -> Result<Vec<Case>> {
                     ),
                     elevator: ei,
                     truth: Some(mode),
-                    scenario: Scenario::new(mode, onset, ramp, span, sev)?,
+                    scenario: Scenario::new(mode, onset, ramp, full_at, sev)?,
                     sensor_fault: None,
                     days: cfg.fault_days,
                     onset_days: Some(onset / DAY_S),

@@ -1821,6 +1821,34 @@ mod tests {
     }
 
     #[test]
+    fn a_large_steps_drift_is_read_from_its_change_point() {
+        // Kd +25 % in the middle of a busy day, on ten plants: the CUSUM's window begins
+        // where its G last left zero, often some healthy trips before the step, and its mean
+        // read the step low; the trips since the likeliest change point read it within 2 SE
+        // at the decision.
+        let m = test_model();
+        let cfg = calibrated(&m).risk;
+        let onset = 86_400.0 + 11.0 * 3600.0;
+        let mut missed = Vec::new();
+        for seed in 0..10 {
+            let trips = synthetic_trips(&m, 40 + seed, 2.0, 0.0, &|t, x| {
+                if t > onset {
+                    0.25 * x[MOTOR]
+                } else {
+                    0.0
+                }
+            });
+            let a = run(&cfg, &trips);
+            let k = first_decided(&a, &trips, onset, |_| true).expect("the step must be decided");
+            let d = a[k].decision;
+            if (d.drift[MOTOR] - 0.25).abs() > 2.0 * d.drift_se[MOTOR] {
+                missed.push((seed, d.drift[MOTOR], d.drift_se[MOTOR], d.window_trips));
+            }
+        }
+        assert!(missed.is_empty(), "Kd drift off the step: {missed:?}");
+    }
+
+    #[test]
     fn a_ramps_drift_is_where_it_stands_now_not_its_windows_mean() {
         // Kd grows by 1 % a day from day 1. Where the change is held, the drift the decision
         // reports is the ramp's level at the last trip within 2 SE; the window's mean, which

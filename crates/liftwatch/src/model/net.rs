@@ -42,6 +42,67 @@ pub struct ResidualNet {
     pub input_scale: [f64; N_IN],
     /// Multipliers of the outputs: δU in V and δF in N per unit of network output.
     pub output_scale: [f64; N_OUT],
+    /// The inputs the fit saw; `None` in models fitted before it was kept, whose network is
+    /// evaluated wherever it is asked.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub domain: Option<InputDomain>,
+}
+
+/// The box of raw inputs (v, λ, a) a network was fitted on, per direction of travel (down,
+/// at rest, up): outside it the network is held at the box's edge instead of extrapolated.
+///
+/// A tanh network is a fit of the inputs it saw and nothing beyond: a training of the
+/// paper's three morning hours sees loaded cars going up and empty ones coming down, and the
+/// evening's loaded down trips lie outside it. There the correction is whatever the weights
+/// extrapolate to, and a wrong correction is a residual the risk reads as a fault; at the
+/// edge the correction is one the data checked, and past it the physics carries the
+/// prediction.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct InputDomain {
+    /// Per direction (down, at rest, up): [min, max] of v, λ and a; `None` for a direction
+    /// the fit never saw (no hold there).
+    pub boxes: [Option<[[f64; 2]; N_IN]>; 3],
+}
+
+impl InputDomain {
+    /// The box of `inputs` (v, λ, a) per direction of v; `None` when there are none.
+    pub fn of(inputs: impl Iterator<Item = [f64; N_IN]>) -> Option<InputDomain> {
+        let mut boxes: [Option<[[f64; 2]; N_IN]>; 3] = [None; 3];
+        for x in inputs {
+            if !x.iter().all(|v| v.is_finite()) {
+                continue;
+            }
+            let b =
+                boxes[direction(x[0])].get_or_insert([[x[0], x[0]], [x[1], x[1]], [x[2], x[2]]]);
+            for (r, v) in b.iter_mut().zip(x) {
+                r[0] = r[0].min(v);
+                r[1] = r[1].max(v);
+            }
+        }
+        boxes
+            .iter()
+            .any(Option::is_some)
+            .then_some(InputDomain { boxes })
+    }
+
+    /// `x` held inside its direction's box.
+    pub fn hold(&self, x: [f64; N_IN]) -> [f64; N_IN] {
+        match &self.boxes[direction(x[0])] {
+            Some(b) => std::array::from_fn(|i| x[i].clamp(b[i][0], b[i][1])),
+            None => x,
+        }
+    }
+}
+
+/// Index of the direction of `v` in [`InputDomain::boxes`]: 0 down, 1 at rest, 2 up.
+fn direction(v: f64) -> usize {
+    if v < 0.0 {
+        0
+    } else if v > 0.0 {
+        2
+    } else {
+        1
+    }
 }
 
 /// Activations kept from a forward pass for the backward pass.
@@ -70,12 +131,18 @@ impl ResidualNet {
             weights,
             input_scale,
             output_scale,
+            domain: None,
         }
     }
 
-    /// δ(x) = (δU in V, δF in N) for the raw inputs (v, λ, a), through [`forward_raw`].
+    /// δ(x) = (δU in V, δF in N) for the raw inputs (v, λ, a), held inside the fit's
+    /// [`InputDomain`], through [`forward_raw`].
     #[inline]
     pub fn forward(&self, v: f64, lambda: f64, a: f64) -> [f64; N_OUT] {
+        let [v, lambda, a] = match &self.domain {
+            Some(d) => d.hold([v, lambda, a]),
+            None => [v, lambda, a],
+        };
         let mut cache = NetCache::default();
         let y = forward_raw(&self.weights, self.scaled(v, lambda, a), &mut cache);
         [y[0] * self.output_scale[0], y[1] * self.output_scale[1]]
@@ -191,6 +258,33 @@ mod tests {
     fn a_new_network_corrects_nothing() {
         let net = ResidualNet::new(7, [1.75, 1.0, 1.0], [5.0, 500.0]);
         assert_eq!(net.forward(1.2, 0.3, -0.5), [0.0, 0.0]);
+    }
+
+    #[test]
+    fn the_network_is_held_at_the_edge_of_the_inputs_it_was_fitted_on() {
+        // Fitted on loaded cars going up and empty ones coming down: a loaded car going down
+        // is corrected as the fullest car seen going down, an up trip at an unseen
+        // acceleration as the steepest one seen; inside the box nothing changes.
+        let mut net = ResidualNet::new(5, [1.75, 1.0, 1.0], [5.0, 500.0]);
+        let mut rng = Rng::new(9);
+        for w in &mut net.weights {
+            *w = rng.uniform(-0.8, 0.8);
+        }
+        let seen = [
+            [1.5, 0.6, 0.4],
+            [0.8, 0.2, -0.5],
+            [-1.5, 0.0, 0.3],
+            [-1.0, 0.1, -0.6],
+            [0.0, 0.3, 0.0],
+        ];
+        let free = net.clone();
+        net.domain = InputDomain::of(seen.into_iter());
+        assert_eq!(net.forward(1.2, 0.4, 0.1), free.forward(1.2, 0.4, 0.1));
+        assert_eq!(net.forward(-1.2, 0.8, 0.0), free.forward(-1.2, 0.1, 0.0));
+        assert_eq!(net.forward(1.0, 0.3, 0.9), free.forward(1.0, 0.3, 0.4));
+        assert_eq!(net.forward(0.0, 0.9, 0.0), free.forward(0.0, 0.3, 0.0));
+        assert_ne!(net.forward(-1.2, 0.8, 0.0), free.forward(-1.2, 0.8, 0.0));
+        assert!(InputDomain::of(std::iter::empty()).is_none());
     }
 
     #[test]

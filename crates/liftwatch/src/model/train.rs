@@ -35,7 +35,7 @@ use crate::error::{Error, Result};
 use crate::features::FeatureRow;
 use crate::linalg::SquareMatrix;
 use crate::model::loss::{LossStats, LossWeights, Objective, Obs, ParamMap, Prior, N_UNKNOWNS};
-use crate::model::net::ResidualNet;
+use crate::model::net::{InputDomain, ResidualNet};
 use crate::model::optim::gauss_newton::VoltageFit;
 use crate::model::optim::{adam, lbfgs};
 use crate::model::physics::{PhysParams, N_PHYS};
@@ -452,6 +452,7 @@ pub fn train(
     let parameters = map.theta(&x[..N_PHYS]);
     let mut net = net0;
     net.weights.copy_from_slice(&x[N_PHYS..]);
+    net.domain = InputDomain::of(data.iter().map(|o| [o.v, o.lambda, o.a]));
     let (reports, warnings, covariance) =
         report::param_reports(data, &parameters, &net, &prior, m_r, cfg.w_p);
     let scales = healthy_scales(data, &parameters, &net, m_r);

@@ -842,6 +842,28 @@ fn calibrate_drift(cfg: &mut RiskConfig, trips: &[TripEvidence]) {
         };
     }
     cfg.prior_info = rls.a;
+    // The lenses' healthy spread: each signature's level alone in the same memory, measured
+    // in a second pass against the θ0 just found.
+    let mut rls = Rls::default();
+    let (mut sum2, mut n) = ([0.0; N_MODES], [0.0; N_MODES]);
+    for (k, t) in trips.iter().enumerate() {
+        rls.update(t, forget);
+        if k < warmup {
+            continue;
+        }
+        for (m, lens) in rls.alone(&cfg.healthy_coef, 1.0).into_iter().enumerate() {
+            if let Some((d, _)) = lens {
+                sum2[m] += d * d;
+                n[m] += 1.0;
+            }
+        }
+    }
+    if n.iter().all(|&n| n >= 2.0) {
+        // The root mean square about zero, not about the training's own mean: the lens reads
+        // the level against zero, and an offset the training already had is part of its
+        // healthy spread. The same floor as the joint drifts'.
+        cfg.lens_sd = Some(std::array::from_fn(|m| (sum2[m] / n[m]).sqrt().max(0.005)));
+    }
 }
 
 /// Step 3 of the calibration: τ = μ + 3σ of the healthy c, combined and per mode.

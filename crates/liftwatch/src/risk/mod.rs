@@ -122,6 +122,11 @@ pub struct RiskConfig {
     /// them when the residuals within a trip are not fully correlated; k scales them to what
     /// the healthy data show, while they still grow where the data are thinner than in the fit.
     pub se_scale: [f64; N_MODES],
+    /// Healthy standard deviation, after warm-up, of each signature's level alone in the
+    /// long memory ([`Rls::alone`]), which the per-mode lenses read; `None` in models
+    /// calibrated before, whose lenses read the joint drifts against `drift_sd`.
+    #[serde(default)]
+    pub lens_sd: Option<[f64; N_MODES]>,
     /// Prior information of the re-identification (packed upper triangle of XᵀX, healthy).
     pub prior_info: [f64; 6],
     /// Healthy variance of the per-trip regression residual (V²).
@@ -174,6 +179,7 @@ impl Default for RiskConfig {
             healthy_coef: [0.0; N_MODES],
             drift_sd: [0.02, 0.05, 0.05],
             se_scale: [1.0; N_MODES],
+            lens_sd: None,
             prior_info: [0.0; 6],
             prior_s2: 1.0,
             // μ + 3σ of c = ln(1 + |z|) for a unit-normal z.
@@ -276,6 +282,9 @@ impl RiskConfig {
             )?;
             range("risk.drift_sd", self.drift_sd[m], 1e-9, MAX_COEF)?;
             range("risk.se_scale", self.se_scale[m], 1e-3, 1e3)?;
+            if let Some(sd) = &self.lens_sd {
+                range("risk.lens_sd", sd[m], 1e-9, MAX_COEF)?;
+            }
         }
         for v in self.prior_info {
             range("risk.prior_info", v, -1e30, 1e30)?;

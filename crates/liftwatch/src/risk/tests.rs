@@ -261,3 +261,44 @@ fn regression_recovers_injected_coefficients() {
     assert!((theta[FRICTION] - 0.25).abs() < 0.05, "{theta:?}");
     assert!((theta[BRAKE] - 0.5).abs() < 0.1, "{theta:?}");
 }
+
+#[test]
+fn each_signature_alone_reads_its_projection_of_an_offset() {
+    // An offset along friction alone: friction's lens reads it whole; the others read only
+    // its projection on them (Σ x_m·x_f/Σ x_m² of it), never the large opposite drifts a
+    // joint fit of near-collinear signatures can split it into, and nothing when θ0 already
+    // holds it.
+    let m = test_model();
+    let offset = 0.2;
+    let trips = synthetic_trips(&m, 5, 2.0, 0.0, &|_, x| offset * x[FRICTION]);
+    let mut rls = Rls::default();
+    let (mut xx, mut xf) = ([0.0; N_MODES], [0.0; N_MODES]);
+    for t in &trips {
+        rls.update(t, 1.0);
+        let w = unpack(&t.xtx);
+        for k in 0..N_MODES {
+            xx[k] += w[k][k];
+            xf[k] += w[k][FRICTION];
+        }
+    }
+    let lens = rls.alone(&[0.0; N_MODES], 1.0);
+    let (d, se) = lens[FRICTION].expect("friction has information");
+    assert!((d - offset).abs() < 0.05, "friction alone {d} ± {se}");
+    for k in [MOTOR, BRAKE] {
+        let (d, _) = lens[k].expect("information");
+        let projection = offset * xf[k] / xx[k];
+        assert!(
+            (d - projection).abs() < 0.05 * offset.max(projection.abs()) + 0.02,
+            "mode {k}: {d} against the projection {projection}"
+        );
+    }
+    let mut theta0 = [0.0; N_MODES];
+    theta0[FRICTION] = offset;
+    for (k, lens) in rls.alone(&theta0, 1.0).into_iter().enumerate() {
+        let (d, _) = lens.expect("information");
+        assert!(
+            d.abs() < 0.05 * offset + 0.02,
+            "mode {k} reads {d} with θ0 holding it"
+        );
+    }
+}

@@ -50,6 +50,23 @@ impl Rls {
         }
     }
 
+    /// Each signature's level alone against `theta0`, (b_m − (A·θ0)_m)/A_mm, with its
+    /// variance s²/A_mm: what the memory shows along one signature, the way the sequential
+    /// decision reads a window ([`super::sequential`]). On a car whose three signatures are
+    /// nearly collinear (the 630 kg car, mostly empty) the joint θ̂ splits a small offset of
+    /// the healthy level into large opposite drifts (a 3-hour model read Kd −16 %, brake drag
+    /// +800 N and friction −270 N on the healthy car), which a one-sided lens takes for a
+    /// fault; alone, each signature shows the offset's projection on it, no more. `None` for a
+    /// signature without information yet.
+    pub fn alone(&self, theta0: &[f64; N_MODES], s2: f64) -> [Option<(f64, f64)>; N_MODES] {
+        let m = unpack(&self.a);
+        std::array::from_fn(|i| {
+            let aii = m[i][i];
+            let healthy: f64 = (0..N_MODES).map(|j| m[i][j] * theta0[j]).sum();
+            (aii > 0.0).then(|| ((self.b[i] - healthy) / aii, (s2 / aii).sqrt()))
+        })
+    }
+
     /// θ̂ and the variances s²·(A⁻¹)_jj, or `None` while the signatures are not separable yet.
     pub fn estimate(&self, s2: f64) -> Option<([f64; N_MODES], [f64; N_MODES])> {
         let inv = spd_inverse(&self.a)?;
@@ -209,13 +226,23 @@ impl RiskTracker {
         let estimate = self.rls.estimate(self.s2);
         self.theta = Memo(estimate.map(|(theta, _)| theta));
         if let Some((theta, var)) = estimate {
+            let alone = cfg
+                .lens_sd
+                .map(|sd| (sd, self.rls.alone(&cfg.healthy_coef, self.s2)));
             for m in 0..N_MODES {
                 a.drift[m] = theta[m] - cfg.healthy_coef[m];
                 a.drift_se[m] = var[m].sqrt();
                 // Never less than the healthy spread, never less than the current standard
                 // error scaled as in the fit (large while the data are thin, e.g. one
                 // direction only).
-                let z = a.drift[m] / (cfg.se_scale[m] * a.drift_se[m]).max(cfg.drift_sd[m]);
+                let joint = a.drift[m] / (cfg.se_scale[m] * a.drift_se[m]).max(cfg.drift_sd[m]);
+                // And no more than the signature's level alone shows: a change both views
+                // agree on (the joint drifts attribute it, the level alone rules out a split
+                // of near-collinear signatures).
+                let z = match alone {
+                    Some((sd, lens)) => joint.min(lens[m].map_or(0.0, |(d, se)| d / se.max(sd[m]))),
+                    None => joint,
+                };
                 a.z[m] = z.max(0.0);
                 c_modes[m] = a.z[m].ln_1p();
             }

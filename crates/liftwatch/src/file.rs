@@ -220,6 +220,9 @@ fn check(model: &FittedModel) -> std::result::Result<(), String> {
             "a network weight exceeds {MAX_WEIGHT:e} in magnitude"
         ));
     }
+    if let Some(d) = &m.net.domain {
+        d.validate()?;
+    }
     for &s in m.net.input_scale.iter().chain(&m.net.output_scale) {
         check_range("net scales", s, 1e-9, 1e9)
             .map_err(|_| "network scales must be positive".to_string())?;

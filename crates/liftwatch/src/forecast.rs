@@ -376,14 +376,29 @@ pub struct Forecast {
 }
 
 /// The drift of mode `m` that, held on every trip, brings the mode's risk to `risk`: the
-/// per-mode lens c = ln(1 + d/max(σ_m, k_m·SE_m)) in excess of τ_m, accumulated to its steady state
+/// per-mode lens c = ln(1 + d/scale) in excess of τ_m, scale = max(σ_m, k_m·SE_m) and, where
+/// the lens also reads the level alone, its healthy RMS and error; accumulated to its steady state
 /// x·exp(κ·D_max)/(1 − γ) (relative units).
 pub fn drift_for_risk(cfg: &RiskConfig, m: usize, risk: f64) -> f64 {
     let x = risk / cfg.steady_state(1.0);
     // The lens divides by max(σ_m, k_m·SE_m); SE_m of the re-identification at its healthy
     // information (the prior information the tracker starts from).
     let se = spd_inverse(&cfg.prior_info).map_or(0.0, |inv| (cfg.prior_s2 * inv[m][m]).sqrt());
-    let scale = cfg.drift_sd[m].max(cfg.se_scale[m] * se);
+    let joint = cfg.drift_sd[m].max(cfg.se_scale[m] * se);
+    // A drift of mode m alone reads the same jointly and alone; the lens takes the smaller z,
+    // i.e. the larger scale (the level alone against its healthy RMS, `lens_sd`).
+    let scale = match cfg.lens_sd {
+        Some(sd) => {
+            let a = crate::risk::unpack(&cfg.prior_info)[m][m];
+            let alone = if a > 0.0 {
+                (cfg.prior_s2 / a).sqrt()
+            } else {
+                0.0
+            };
+            joint.max(alone.max(sd[m]))
+        }
+        None => joint,
+    };
     scale * ((cfg.tau_modes[m] + x).exp() - 1.0)
 }
 

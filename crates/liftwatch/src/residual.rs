@@ -100,25 +100,7 @@ pub fn applicable(x: &FeatureRow) -> bool {
     x.v.is_finite() && x.a.is_finite() && x.lambda.is_finite() && x.voltage.is_finite()
 }
 
-/// The network's inputs for a row: its own (v, λ, a) while moving; (0, λ, 0) at standstill,
-/// λ rounded to 0.001.
-///
-/// Deviation from a literal reading of the model: below the motion threshold the encoder's
-/// speed and the acceleration estimate are noise around zero, the car is held by the brake,
-/// and the correction is evaluated at rest. The physics keep the measured v (its Ke·|v| term
-/// is not negligible), only the network's inputs are pinned, so that consecutive standstill
-/// samples share one forward pass per λ ([`PredictionCache`]). The fit uses the same inputs
-/// through [`HybridModel::predict`] only when it pins them too; the difference is a network
-/// evaluated a few mm/s from rest, far below σ_U.
-pub fn net_inputs(x: &FeatureRow) -> (f64, f64, f64) {
-    if x.s == 0 {
-        // λ to 0.1 % of rated load: the door-closed reference is a running mean that moves in
-        // the last digits with every sample; the correction does not.
-        (0.0, (x.lambda * 1000.0).round() / 1000.0, 0.0)
-    } else {
-        (x.v, x.lambda, x.a)
-    }
-}
+pub use crate::model::net_inputs;
 
 /// Memo of the last network output, keyed by the exact network inputs.
 ///

@@ -74,9 +74,31 @@ impl HybridModel {
         }
     }
 
-    /// Predicts voltage and force for one feature row, the network evaluated at the row's own
-    /// (v, λ, a).
+    /// Predicts voltage and force for one feature row, the network evaluated at the row's
+    /// [`net_inputs`].
     pub fn predict(&self, x: &FeatureRow) -> Prediction {
-        self.predict_with(x, self.net.forward(x.v, x.lambda, x.a))
+        let (v, lambda, a) = net_inputs(x);
+        self.predict_with(x, self.net.forward(v, lambda, a))
+    }
+}
+
+/// The network's inputs for a row: its own (v, λ, a) while moving; (0, λ, 0) at standstill,
+/// λ rounded to 0.001.
+///
+/// Deviation from a literal reading of the model: below the motion threshold the encoder's
+/// speed and the acceleration estimate are noise around zero, the car is held by the brake,
+/// and the correction is evaluated at rest. The physics keep the measured v (its Ke·|v| term
+/// is not negligible), only the network's inputs are pinned, so that consecutive standstill
+/// samples share one forward pass per λ (`residual::PredictionCache`). [`HybridModel::predict`]
+/// pins them the same way, and the fit's standstill observations are (0, λ, 0) already: a
+/// standstill row a few mm/s from rest is corrected as at rest, inside the rest box of the
+/// network's [`net::InputDomain`], not pushed to the slowest speed seen moving.
+pub fn net_inputs(x: &FeatureRow) -> (f64, f64, f64) {
+    if x.s == 0 {
+        // λ to 0.1 % of rated load: the door-closed reference is a running mean that moves in
+        // the last digits with every sample; the correction does not.
+        (0.0, (x.lambda * 1000.0).round() / 1000.0, 0.0)
+    } else {
+        (x.v, x.lambda, x.a)
     }
 }

@@ -85,6 +85,31 @@ impl InputDomain {
             .then_some(InputDomain { boxes })
     }
 
+    /// Checks a hand-edited model: every edge finite, each range in order, and each box's
+    /// speeds of its own direction (a box with min > max would make [`Self::hold`] panic).
+    ///
+    /// # Errors
+    /// A message naming the first box out of order.
+    pub fn validate(&self) -> std::result::Result<(), String> {
+        const NAMES: [&str; 3] = ["down", "at rest", "up"];
+        for (b, name) in self.boxes.iter().zip(NAMES) {
+            let Some(b) = b else { continue };
+            if b.iter()
+                .any(|r| !(r[0].is_finite() && r[1].is_finite() && r[0] <= r[1]))
+            {
+                return Err(format!(
+                    "net.domain: the {name} box needs finite ranges with min <= max"
+                ));
+            }
+            if direction(b[0][0]) != direction(b[0][1]) || !NAMES[direction(b[0][0])].eq(name) {
+                return Err(format!(
+                    "net.domain: the {name} box holds speeds of another direction"
+                ));
+            }
+        }
+        Ok(())
+    }
+
     /// `x` held inside its direction's box.
     pub fn hold(&self, x: [f64; N_IN]) -> [f64; N_IN] {
         match &self.boxes[direction(x[0])] {
@@ -285,6 +310,12 @@ mod tests {
         assert_eq!(net.forward(0.0, 0.9, 0.0), free.forward(0.0, 0.3, 0.0));
         assert_ne!(net.forward(-1.2, 0.8, 0.0), free.forward(-1.2, 0.8, 0.0));
         assert!(InputDomain::of(std::iter::empty()).is_none());
+        let mut bad = net.domain.clone().expect("a box");
+        assert_eq!(bad.validate(), Ok(()));
+        bad.boxes[2] = Some([[1.0, 0.5], [0.0, 1.0], [-1.0, 1.0]]);
+        assert!(bad.validate().is_err(), "min > max");
+        bad.boxes[2] = Some([[-0.5, 1.0], [0.0, 1.0], [-1.0, 1.0]]);
+        assert!(bad.validate().is_err(), "a down speed in the up box");
     }
 
     #[test]

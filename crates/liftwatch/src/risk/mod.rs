@@ -9,7 +9,8 @@
 //!     x_motor = φ(s)·Kd·s·F_pred                coefficient = relative change of Kd
 //!     x_brake = φ(s)·Kd·F_c·1[s = −1 or decel]  coefficient = brake drag / F_c
 //!     x_fric  = φ(s)·Kd·(F_c + c·|v|)           coefficient = relative change of friction
-//!   z_m = (θ̂_m − θ0_m) / max(σ_m, k_m·SE_m),  z⁺_m = max(0, z_m)
+//!   z_m = min((θ̂_m − θ0_m) / max(σ_m, k_m·SE_m),  ℓ_m / max(σ'_m, SE'_m)),  z⁺_m = max(0, z_m)
+//!                    ℓ_m = (b_m − (A·θ0)_m)/A_mm: signature m's level alone, σ'_m its healthy RMS
 //!                    σ_m: healthy spread of θ̂_m in the fit, SE_m: standard error, k_m ≤ 1 its scale
 //!   c_k = ln(1 + e_trip),  c_m,k = ln(1 + z⁺_m)              compressed evidence per lens
 //!   x = max(0, c − τ) per lens                               τ = μ_c + 3·σ_c of the healthy fit

@@ -28,8 +28,9 @@
 //!           (1, τ)ᵀ(1, τ) ⊗ x·xᵀ · (θ, β) = Σ (1, τ) ⊗ score,  τ = days since the window began
 //!           (all three signatures jointly), SE² = (var of θ + β·τ_end)·max s² + wander² + se0²;
 //!           a window shorter than SLOPE_MIN_DAYS: W⁻¹·S, the mean of its trips since the
-//!           likeliest change point, argmax over suffixes k of the last RECENT_TRIPS trips
-//!           (and the whole window) of S_k²/W_k along the leading signature;
+//!           likeliest change point, argmax over suffixes k of the last RECENT_TRIPS trips of
+//!           S_k²/W_k along the named mode's signature (else the leading CUSUM's), taken when
+//!           it beats the whole window's by 2·s²·ln(ISOLATION_ODDS);
 //!           the named mode's own drift from its signature alone (the same line, 2×2),
 //!           SE² = var·s²_m + wander²_m + se0²_m; the other two jointly on what it leaves of the
 //!           window's mean, S − W·e_m·S_m/W_mm
@@ -503,7 +504,7 @@ pub struct Sequential {
     /// The CUSUMs, per mode and size.
     pub bank: [[Cusum; N_SIZES]; N_MODES],
     /// The last [`RECENT_TRIPS`] usable trips, newest last; empty in a state saved before it
-    /// was kept (the windows' drifts are then their own until it fills).
+    /// was kept (a change point is then looked for only among the trips kept since).
     #[serde(default)]
     pub recent: std::collections::VecDeque<RecentTrip>,
 }
@@ -567,7 +568,7 @@ impl Sequential {
                 }
             }
         }
-        if self.recent.len() == RECENT_TRIPS {
+        while self.recent.len() >= RECENT_TRIPS {
             self.recent.pop_front();
         }
         self.recent.push_back(RecentTrip { score, xtx: t.xtx });
@@ -589,7 +590,7 @@ impl Sequential {
             } else {
                 lead.0
             };
-            self.since_change(c, m)
+            self.since_change(c, m, cfg.s2[m])
         };
         let (drift, drift_se) = drifts(cfg, since.as_ref().unwrap_or(c), machine_mode);
         Decision {
@@ -614,19 +615,22 @@ impl Sequential {
 
     /// The trips of window `c` since its most likely change point for signature `m`, as a
     /// window without time (its drift is its mean), when that point lies among the recent
-    /// trips after the window's start; `None` when the whole window is the likelier change.
+    /// trips after the window's start and explains them better than the whole window by
+    /// [`ISOLATION_ODDS`]; `None` when the whole window stands. `s2` is the signature's
+    /// healthy noise per unit information.
     ///
     /// Window-limited GLR for a shift of unknown size (Lai, 1995): the change point is the
     /// start k of the suffix that maximises S_k²/W_k (S_k, W_k: the suffix's score and
-    /// information along m), the log-likelihood ratio of a shift from trip k on; a CUSUM's
-    /// window starts where its G last left zero, which on a large step is often a few healthy
-    /// trips early (a Kd step of +25 % on the 40-floor car: ten of its 52 trips were before the
-    /// onset and the window's mean read +19.7 %).
-    fn since_change(&self, c: &Cusum, m: usize) -> Option<Cusum> {
+    /// information along m), twice s² times the log-likelihood ratio of a shift from trip k
+    /// on; a CUSUM's window starts where its G last left zero, which on a large step is often
+    /// a few healthy trips early (a Kd step of +25 % on the 40-floor car: ten of its 52 trips
+    /// were before the onset and the window's mean read +19.7 %). The odds keep a shorter
+    /// suffix from winning on noise alone, which would read a homogeneous window high.
+    fn since_change(&self, c: &Cusum, m: usize, s2: f64) -> Option<Cusum> {
         let k = PACKED_DIAG[m];
         let glr = |s: f64, w: f64| if w > 0.0 { s.max(0.0).powi(2) / w } else { 0.0 };
-        let mut best = glr(c.s[m], c.w[k]);
-        let mut found = None;
+        let whole = glr(c.s[m], c.w[k]);
+        let mut best: Option<(f64, Cusum)> = None;
         let mut suffix = Cusum::default();
         let n = self.recent.len().min(c.trips as usize);
         for (len, r) in self.recent.iter().rev().take(n).enumerate() {
@@ -640,13 +644,13 @@ impl Sequential {
             let full = len + 1 == c.trips as usize;
             if len + 1 >= CHANGE_POINT_MIN_TRIPS && !full {
                 let g = glr(suffix.s[m], suffix.w[k]);
-                if g > best {
-                    best = g;
-                    found = Some(suffix);
+                if best.as_ref().map_or(true, |b| g > b.0) {
+                    best = Some((g, suffix));
                 }
             }
         }
-        found
+        let margin = 2.0 * s2 * ISOLATION_ODDS.ln();
+        best.filter(|b| b.0 - whole >= margin).map(|b| b.1)
     }
 
     /// G now, per mode and size.

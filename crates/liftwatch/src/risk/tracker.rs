@@ -3,7 +3,8 @@
 //!
 //! ```text
 //! θ̂ = A⁻¹b,  A ← λ·A + XᵀX,  b ← λ·b + Xᵀr            per trip, λ = 1 − 1/H
-//! z_m = (θ̂_m − θ0_m) / max(σ_m, k_m·SE_m),  c_m = ln(1 + max(0, z_m))
+//! z_m = min((θ̂_m − θ0_m) / max(σ_m, k_m·SE_m), ℓ_m / max(σ'_m, SE'_m)),  c_m = ln(1 + max(0, z_m))
+//!       ℓ_m = (b_m − (A·θ0)_m)/A_mm, signature m's level alone ([`Rls::alone`])
 //! x = max(0, c − τ),  D ← D + 1 if x > 0 else 0,  R ← γ·R + x·exp(κ·min(D, D_max))
 //! ```
 

@@ -784,6 +784,11 @@ fn fit_spread(it: impl Iterator<Item = (f64, u32)>) -> [f64; 2] {
     }
 }
 
+/// Floor of the healthy spread of the re-identified coefficients, joint and alone (relative
+/// units: 0.5 % of Kd, of friction, of F_c as brake drag): keeps a very clean record from
+/// declaring any wander anomalous.
+const DRIFT_SD_FLOOR: f64 = 0.005;
+
 /// Step 2 of the calibration: θ0, σ, the prior information and s² from a healthy pass.
 fn calibrate_drift(cfg: &mut RiskConfig, trips: &[TripEvidence]) {
     let forget = cfg.forgetting();
@@ -822,9 +827,7 @@ fn calibrate_drift(cfg: &mut RiskConfig, trips: &[TripEvidence]) {
         let mean = sum[m] / count;
         let var = (sum2[m] / count - mean * mean).max(0.0);
         cfg.healthy_coef[m] = mean;
-        // A floor of 0.5 % (relative units) keeps a very clean record from declaring any
-        // wander anomalous.
-        cfg.drift_sd[m] = var.sqrt().max(0.005);
+        cfg.drift_sd[m] = var.sqrt().max(DRIFT_SD_FLOOR);
         // The variances above used s² = 1; the healthy s² turns them into SE².
         let se2 = cfg.prior_s2 * nominal[m] / count;
         // The spread of θ̂ is known only from many independent forgetting windows; with
@@ -861,8 +864,10 @@ fn calibrate_drift(cfg: &mut RiskConfig, trips: &[TripEvidence]) {
     if n.iter().all(|&n| n >= 2.0) {
         // The root mean square about zero, not about the training's own mean: the lens reads
         // the level against zero, and an offset the training already had is part of its
-        // healthy spread. The same floor as the joint drifts'.
-        cfg.lens_sd = Some(std::array::from_fn(|m| (sum2[m] / n[m]).sqrt().max(0.005)));
+        // healthy spread.
+        cfg.lens_sd = Some(std::array::from_fn(|m| {
+            (sum2[m] / n[m]).sqrt().max(DRIFT_SD_FLOOR)
+        }));
     }
 }
 

@@ -49,7 +49,7 @@ use crate::alarm::Level;
 use crate::elevator::Elevator;
 use crate::exact;
 use crate::mode::{FaultMode, MACHINE_MODES, N_MODES};
-use crate::risk::{spd_inverse, RiskConfig, TripEvidence};
+use crate::risk::{spd_inverse, RiskConfig, Rls, TripEvidence};
 
 /// Trips per point of the drift history: the sequential decision's wander block, a few busy
 /// hours, short against the daily thermal cycle and long enough to separate the signatures.
@@ -384,20 +384,14 @@ pub fn drift_for_risk(cfg: &RiskConfig, m: usize, risk: f64) -> f64 {
     // The lens divides by max(σ_m, k_m·SE_m); SE_m of the re-identification at its healthy
     // information (the prior information the tracker starts from).
     let se = spd_inverse(&cfg.prior_info).map_or(0.0, |inv| (cfg.prior_s2 * inv[m][m]).sqrt());
-    let joint = cfg.drift_sd[m].max(cfg.se_scale[m] * se);
+    let joint = cfg.joint_scale(m, se);
     // A drift of mode m alone reads the same jointly and alone; the lens takes the smaller z,
     // i.e. the larger scale (the level alone against its healthy RMS, `lens_sd`).
-    let scale = match cfg.lens_sd {
-        Some(sd) => {
-            let a = crate::risk::unpack(&cfg.prior_info)[m][m];
-            let alone = if a > 0.0 {
-                (cfg.prior_s2 / a).sqrt()
-            } else {
-                0.0
-            };
-            joint.max(alone.max(sd[m]))
-        }
-        None => joint,
+    let scale = if cfg.lens_sd.is_some() {
+        let alone = Rls::with_prior(cfg).alone(&cfg.healthy_coef, cfg.prior_s2)[m];
+        joint.max(cfg.alone_scale(m, alone.map_or(0.0, |(_, se)| se)))
+    } else {
+        joint
     };
     scale * ((cfg.tau_modes[m] + x).exp() - 1.0)
 }

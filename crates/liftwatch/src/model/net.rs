@@ -92,7 +92,7 @@ impl InputDomain {
     /// A message naming the first box out of order.
     pub fn validate(&self) -> std::result::Result<(), String> {
         const NAMES: [&str; 3] = ["down", "at rest", "up"];
-        for (b, name) in self.boxes.iter().zip(NAMES) {
+        for (i, (b, name)) in self.boxes.iter().zip(NAMES).enumerate() {
             let Some(b) = b else { continue };
             if b.iter()
                 .any(|r| !(r[0].is_finite() && r[1].is_finite() && r[0] <= r[1]))
@@ -101,7 +101,7 @@ impl InputDomain {
                     "net.domain: the {name} box needs finite ranges with min <= max"
                 ));
             }
-            if direction(b[0][0]) != direction(b[0][1]) || !NAMES[direction(b[0][0])].eq(name) {
+            if direction(b[0][0]) != i || direction(b[0][1]) != i {
                 return Err(format!(
                     "net.domain: the {name} box holds speeds of another direction"
                 ));

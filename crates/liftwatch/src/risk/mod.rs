@@ -202,6 +202,19 @@ impl Default for RiskConfig {
 }
 
 impl RiskConfig {
+    /// What mode `m`'s joint drift of standard error `se` is divided by in its lens: never
+    /// less than the healthy spread, never less than the standard error scaled as in the fit
+    /// (large while the data are thin, e.g. one direction only).
+    pub fn joint_scale(&self, m: usize, se: f64) -> f64 {
+        (self.se_scale[m] * se).max(self.drift_sd[m])
+    }
+
+    /// What mode `m`'s level alone of standard error `se` is divided by in its lens: never
+    /// less than its healthy spread (`lens_sd`, when the model has it).
+    pub fn alone_scale(&self, m: usize, se: f64) -> f64 {
+        self.lens_sd.map_or(se, |sd| se.max(sd[m]))
+    }
+
     /// λ = 1 − 1/H: the forgetting factor of the re-identification per trip.
     pub fn forgetting(&self) -> f64 {
         1.0 - 1.0 / self.forgetting_trips.max(1.0)

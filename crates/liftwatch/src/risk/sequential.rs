@@ -407,6 +407,14 @@ pub struct SlopeSums {
     pub w2: [f64; 6],
 }
 
+impl SlopeSums {
+    /// Whether the window spans [`SLOPE_MIN_DAYS`], enough time for its line (false for a
+    /// time that is not a number).
+    fn spans_line(&self) -> bool {
+        self.tau_end >= SLOPE_MIN_DAYS
+    }
+}
+
 /// One CUSUM with the sums of the window it holds as changed.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Cusum {
@@ -432,6 +440,18 @@ pub struct Cusum {
     /// Σ mean x_load² over the window.
     #[serde(with = "exact", default)]
     pub load_info: f64,
+}
+
+impl Cusum {
+    /// Adds one trip's score and x·xᵀ to the window's sums.
+    fn add(&mut self, score: &[f64; N_MODES], xtx: &[f64; 6]) {
+        for (s, x) in self.s.iter_mut().zip(score) {
+            *s += x;
+        }
+        for (w, x) in self.w.iter_mut().zip(xtx) {
+            *w += x;
+        }
+    }
 }
 
 /// What the sequential decision concluded after one trip.
@@ -543,12 +563,7 @@ impl Sequential {
                     });
                 }
                 c.trips = c.trips.saturating_add(1);
-                for i in 0..N_MODES {
-                    c.s[i] += score[i];
-                }
-                for k in 0..6 {
-                    c.w[k] += t.xtx[k];
-                }
+                c.add(&score, &t.xtx);
                 c.load_score += load_score;
                 c.load_info += t.load.ll;
                 if let Some(sl) = &mut c.slope {
@@ -581,7 +596,7 @@ impl Sequential {
         // A window without a line (under SLOPE_MIN_DAYS) reports its level since the change
         // point the recent trips show, which is the window's own start unless a later one
         // explains them better; a window with a line reports the line's level now.
-        let has_line = c.slope.is_some_and(|sl| sl.tau_end >= SLOPE_MIN_DAYS);
+        let has_line = c.slope.is_some_and(|sl| sl.spans_line());
         let since = if has_line {
             None
         } else {
@@ -634,12 +649,7 @@ impl Sequential {
         let mut suffix = Cusum::default();
         let n = self.recent.len().min(c.trips as usize);
         for (len, r) in self.recent.iter().rev().take(n).enumerate() {
-            for i in 0..N_MODES {
-                suffix.s[i] += r.score[i];
-            }
-            for j in 0..6 {
-                suffix.w[j] += r.xtx[j];
-            }
+            suffix.add(&r.score, &r.xtx);
             suffix.trips = len as u32 + 1;
             let full = len + 1 == c.trips as usize;
             if len + 1 >= CHANGE_POINT_MIN_TRIPS && !full {
@@ -790,7 +800,7 @@ fn alone_drift(cfg: &SequentialConfig, c: &Cusum, m: usize) -> (f64, f64) {
     let k = PACKED_DIAG[m];
     let (a, s) = (c.w[k], c.s[m]);
     let se = |var: f64| (cfg.s2[m] * var + cfg.floor_var(m)).sqrt();
-    if let Some(sl) = c.slope.filter(|sl| sl.tau_end >= SLOPE_MIN_DAYS) {
+    if let Some(sl) = c.slope.filter(SlopeSums::spans_line) {
         let (b, d, t) = (sl.w1[k], sl.w2[k], sl.tau_end);
         let det = a * d - b * b;
         if det > 0.0 {
@@ -847,7 +857,7 @@ pub const SLOPE_MIN_DAYS: f64 = 0.25;
 /// per unit s²: (θ, β) solves the 6×6 normal equations of the regressors (x, τ·x); `None`
 /// when the window is too short in time or they are singular.
 fn line_now(c: &Cusum, sl: &SlopeSums) -> Option<([f64; N_MODES], [f64; N_MODES])> {
-    if sl.tau_end.is_nan() || sl.tau_end < SLOPE_MIN_DAYS {
+    if !sl.spans_line() {
         return None;
     }
     let (w0, w1, w2) = (unpack(&c.w), unpack(&sl.w1), unpack(&sl.w2));

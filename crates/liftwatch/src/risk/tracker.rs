@@ -229,19 +229,19 @@ impl RiskTracker {
         if let Some((theta, var)) = estimate {
             let alone = cfg
                 .lens_sd
-                .map(|sd| (sd, self.rls.alone(&cfg.healthy_coef, self.s2)));
+                .is_some()
+                .then(|| self.rls.alone(&cfg.healthy_coef, self.s2));
             for m in 0..N_MODES {
                 a.drift[m] = theta[m] - cfg.healthy_coef[m];
                 a.drift_se[m] = var[m].sqrt();
-                // Never less than the healthy spread, never less than the current standard
-                // error scaled as in the fit (large while the data are thin, e.g. one
-                // direction only).
-                let joint = a.drift[m] / (cfg.se_scale[m] * a.drift_se[m]).max(cfg.drift_sd[m]);
+                let joint = a.drift[m] / cfg.joint_scale(m, a.drift_se[m]);
                 // And no more than the signature's level alone shows: a change both views
                 // agree on (the joint drifts attribute it, the level alone rules out a split
                 // of near-collinear signatures).
                 let z = match alone {
-                    Some((sd, lens)) => joint.min(lens[m].map_or(0.0, |(d, se)| d / se.max(sd[m]))),
+                    Some(lens) => {
+                        joint.min(lens[m].map_or(0.0, |(d, se)| d / cfg.alone_scale(m, se)))
+                    }
                     None => joint,
                 };
                 a.z[m] = z.max(0.0);

@@ -463,7 +463,8 @@ pub struct Decision {
     /// The mode the leading window's likelihoods point at.
     pub mode: FaultMode,
     /// Drift of the leading window (motor, brake, friction; relative units), NaN when the
-    /// window does not separate the signatures.
+    /// window does not separate the signatures or the ratio is below the caller's
+    /// `drift_from` ([`Sequential::push`]).
     #[serde(with = "exact::array")]
     pub drift: [f64; N_MODES],
     /// Standard errors of those drifts.
@@ -530,8 +531,11 @@ pub struct Sequential {
 }
 
 impl Sequential {
-    /// Takes one usable trip and returns the decision.
-    pub fn push(&mut self, cfg: &SequentialConfig, t: &TripEvidence) -> Decision {
+    /// Takes one usable trip and returns the decision; its drifts are estimated only when
+    /// the leading G/h is at least `drift_from` (NaN below: the risk tracker reports them from
+    /// its release ratio on, and a healthy trip's window would spend most of the step, and of
+    /// the calibration's ten bootstrapped years, on a drift nobody reads).
+    pub fn push(&mut self, cfg: &SequentialConfig, t: &TripEvidence, drift_from: f64) -> Decision {
         let (score, info) = cfg.score(t);
         let load_score = cfg.load.map_or(0.0, |l| l.score(&cfg.theta0, t));
         let mut lead = (0usize, 0usize, 0.0f64);
@@ -593,21 +597,26 @@ impl Sequential {
         } else {
             (FaultMode::Unknown, FaultMode::Unknown, [0.0; N_MODES], 0.0)
         };
-        // A window without a line (under SLOPE_MIN_DAYS) reports its level since the change
-        // point the recent trips show, which is the window's own start unless a later one
-        // explains them better; a window with a line reports the line's level now.
-        let has_line = c.slope.is_some_and(|sl| sl.spans_line());
-        let since = if has_line {
-            None
-        } else {
-            let m = if machine_mode.is_machine() {
-                machine_mode as usize
+        let (drift, drift_se) = if lead.2 >= drift_from {
+            // A window without a line (under SLOPE_MIN_DAYS) reports its level since the
+            // change point the recent trips show, which is the window's own start unless a
+            // later one explains them better; a window with a line reports the line's level
+            // now.
+            let has_line = c.slope.is_some_and(|sl| sl.spans_line());
+            let since = if has_line {
+                None
             } else {
-                lead.0
+                let m = if machine_mode.is_machine() {
+                    machine_mode as usize
+                } else {
+                    lead.0
+                };
+                self.since_change(c, m, cfg.s2[m])
             };
-            self.since_change(c, m, cfg.s2[m])
+            drifts(cfg, since.as_ref().unwrap_or(c), machine_mode)
+        } else {
+            ([f64::NAN; N_MODES], [f64::NAN; N_MODES])
         };
-        let (drift, drift_se) = drifts(cfg, since.as_ref().unwrap_or(c), machine_mode);
         Decision {
             ratio: lead.2,
             mode,

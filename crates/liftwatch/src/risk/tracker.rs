@@ -280,7 +280,7 @@ impl RiskTracker {
         self.last.risk = self.combined.r;
         self.last.risk_modes = [self.modes[0].r, self.modes[1].r, self.modes[2].r];
         if let Some(seq) = &cfg.sequential {
-            let d = self.seq.push(seq, t);
+            let d = self.seq.push(seq, t, cfg.release_ratio);
             // While a change is held, its drift is the one measured on the changed trips, not
             // the long memory's lagged fraction of it.
             if d.ratio >= cfg.release_ratio && d.drift.iter().all(|v| v.is_finite()) {

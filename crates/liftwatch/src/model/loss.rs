@@ -25,7 +25,7 @@
 //! sign, as θ = μ + 0.1·M_r·z.
 
 use crate::elevator::Elevator;
-use crate::model::net::{backward_raw, forward_raw, NetCache, N_WEIGHTS};
+use crate::model::net::{backward_lanes, forward_lanes, NetCache, LANES, N_WEIGHTS};
 use crate::model::physics::{PhysParams, N_PHYS};
 
 /// Number of optimised unknowns: θ (as z) then the network weights.
@@ -273,43 +273,51 @@ impl Objective<'_> {
         }
         let (mut sum, mut wsum) = (0.0, 0.0);
         let (mut su, mut sf, mut wm) = (0.0, 0.0, 0.0);
-        let mut cache = NetCache::default();
-        for o in self.data {
-            let pe = phys_eval(&p, &self.motor_ref, o, self.rated_load_kg);
-            let xin = [
-                o.v / self.input_scale[0],
-                o.lambda / self.input_scale[1],
-                o.a / self.input_scale[2],
-            ];
-            let y = forward_raw(w, xin, &mut cache);
-            let (du, df) = (y[0] * self.output_scale[0], y[1] * self.output_scale[1]);
-            let r_u = o.u - pe.u - du;
-            let mut li = lw.w_u * r_u * r_u * iu2 + lw.w_n * (du * du * iu2 + df * df * if2);
-            let g_du = -2.0 * lw.w_u * r_u * iu2 + 2.0 * lw.w_n * du * iu2;
-            let mut g_df = 2.0 * lw.w_n * df * if2;
-            let mut g_th = pe.du.map(|d| -2.0 * lw.w_u * r_u * iu2 * d);
-            if o.s != 0 {
-                let r_f = pe.f + df - pe.f_u;
-                li += lw.w_f * r_f * r_f * if2;
-                g_df += 2.0 * lw.w_f * r_f * if2;
-                for (g, d) in g_th.iter_mut().zip(pe.df) {
-                    *g += 2.0 * lw.w_f * r_f * if2 * d;
+        let mut cache = NetCache::<LANES>::default();
+        for chunk in self.data.chunks(LANES) {
+            let xin: [[f64; 3]; LANES] = std::array::from_fn(|l| {
+                chunk.get(l).map_or([0.0; 3], |o| {
+                    [
+                        o.v / self.input_scale[0],
+                        o.lambda / self.input_scale[1],
+                        o.a / self.input_scale[2],
+                    ]
+                })
+            });
+            let y = forward_lanes(w, &xin, &mut cache);
+            let mut dy = [[0.0; LANES]; 2];
+            for (l, o) in chunk.iter().enumerate() {
+                let pe = phys_eval(&p, &self.motor_ref, o, self.rated_load_kg);
+                let (du, df) = (
+                    y[0][l] * self.output_scale[0],
+                    y[1][l] * self.output_scale[1],
+                );
+                let r_u = o.u - pe.u - du;
+                let mut li = lw.w_u * r_u * r_u * iu2 + lw.w_n * (du * du * iu2 + df * df * if2);
+                let g_du = -2.0 * lw.w_u * r_u * iu2 + 2.0 * lw.w_n * du * iu2;
+                let mut g_df = 2.0 * lw.w_n * df * if2;
+                let mut g_th = pe.du.map(|d| -2.0 * lw.w_u * r_u * iu2 * d);
+                if o.s != 0 {
+                    let r_f = pe.f + df - pe.f_u;
+                    li += lw.w_f * r_f * r_f * if2;
+                    g_df += 2.0 * lw.w_f * r_f * if2;
+                    for (g, d) in g_th.iter_mut().zip(pe.df) {
+                        *g += 2.0 * lw.w_f * r_f * if2 * d;
+                    }
+                    su += o.w * r_u * r_u;
+                    sf += o.w * r_f * r_f;
+                    wm += o.w;
                 }
-                su += o.w * r_u * r_u;
-                sf += o.w * r_f * r_f;
-                wm += o.w;
-            }
-            sum += o.w * li;
-            wsum += o.w;
-            if let Some(g) = grad.as_deref_mut() {
+                sum += o.w * li;
+                wsum += o.w;
                 for k in 0..N_PHYS {
                     gtheta[k] += o.w * g_th[k];
                 }
-                let dy = [
-                    o.w * g_du * self.output_scale[0],
-                    o.w * g_df * self.output_scale[1],
-                ];
-                backward_raw(w, &cache, dy, &mut g[N_PHYS..]);
+                dy[0][l] = o.w * g_du * self.output_scale[0];
+                dy[1][l] = o.w * g_df * self.output_scale[1];
+            }
+            if let Some(g) = grad.as_deref_mut() {
+                backward_lanes(w, &cache, &dy, chunk.len(), &mut g[N_PHYS..]);
             }
         }
         // Prior.

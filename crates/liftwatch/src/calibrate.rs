@@ -1737,6 +1737,10 @@ mod tests {
         // 200 trips later the joint fit reads 0.35 ± 0.08 (a third low, the uniform part
         // taken by friction); the brake alone 0.56 ± 0.05.
         let d = a[k + 200].decision;
+        assert!(
+            d.ratio >= cfg.release_ratio,
+            "the change is still held: {d:?}"
+        );
         assert_eq!(d.machine_mode, crate::mode::FaultMode::Brake, "{d:?}");
         assert!(
             (d.drift[BRAKE] - drag).abs() < (2.0 * d.drift_se[BRAKE]).min(0.2 * drag),

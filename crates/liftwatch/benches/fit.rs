@@ -1,6 +1,6 @@
 //! Fit benchmark: the paper's data size, 3 h at 1 Hz (10,800 samples), on one core.
 //!
-//! Compares liftwatch's default fit (Gauss-Newton on the physics, then L-BFGS on the hybrid)
+//! Compares liftwatch's default fit (Gauss-Newton on the physics, then L-BFGS on the network, θ held)
 //! with its Adam option run as the paper trains (20,000 full-batch epochs from the prior):
 //! wall time and the RMS of the voltage residual each reaches.
 //!

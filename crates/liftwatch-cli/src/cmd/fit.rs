@@ -52,7 +52,7 @@ pub struct Args {
 /// The optimiser choice on the command line.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum OptimizerArg {
-    /// Gauss-Newton on the physics, then L-BFGS on the hybrid model.
+    /// Gauss-Newton on the physics, then L-BFGS on the network with the physics held.
     Lbfgs,
     /// Adam on everything from the prior, full batch (the paper).
     Adam,

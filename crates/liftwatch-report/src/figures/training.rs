@@ -4,10 +4,11 @@
 //!
 //! ```text
 //! L = w_U·mean(r_U²) + w_F·mean(r_F²) + w_P·prior(θ)
-//! stage 1: Gauss-Newton on θ alone; stage 2: θ and the network together
+//! stage 1: Gauss-Newton on θ alone; stage 2: the network on θ held (L-BFGS, the default),
+//!          or θ and the network together (Adam, the paper's schedule)
 //! ```
 
-use liftwatch::model::train::TrainPoint;
+use liftwatch::model::train::{Optimizer, TrainPoint};
 use liftwatch::model::{FitSummary, PhysParams};
 use plotters::style::RGBColor;
 
@@ -183,9 +184,15 @@ fn loss_axis(loss: &[f64]) -> Axis {
 fn training_text(c: &Ctx) -> Vec<String> {
     let fit = &c.inp.model.summary;
     let first = fit.history.first().map_or(f64::NAN, |p| p.loss);
+    let stage2 = match c.inp.model.train.optimizer {
+        Optimizer::Lbfgs => "the correcting network by L-BFGS with θ held at stage 1's",
+        Optimizer::Adam => {
+            "θ and the correcting network together by Adam from the prior, as the paper trains"
+        }
+    };
     vec![format!(
-        "The fit has two stages: Gauss-Newton on the physical parameters θ alone (stage 1), then θ and the correcting \
-         network together (stage 2, {} iterations). The loss went from {} to {} (a factor {}; {} at the end of stage 1). Final RMS \
+        "The fit has two stages: Gauss-Newton on the physical parameters θ alone (stage 1), then {stage2} \
+         (stage 2, {} iterations). The loss went from {} to {} (a factor {}; {} at the end of stage 1). Final RMS \
          residuals on the {} moving training samples: r_U {} V and r_F {} N; the healthy scales that make residuals \
          dimensionless are σ_U = {} V and σ_F = {} N.",
         fit.iterations,
@@ -238,7 +245,7 @@ pub(super) fn parameters(c: &Ctx) -> Section {
             panels,
         },
         heading: "Training: convergence of the physical parameters".into(),
-        text: parameters_text(fit, &rows_html),
+        text: parameters_text(fit, c.inp.model.train.optimizer, &rows_html),
     }
 }
 
@@ -297,7 +304,7 @@ fn parameter_panel(
 }
 
 /// What the panels show, the table of final values and the fit's warnings.
-fn parameters_text(fit: &FitSummary, rows_html: &[String]) -> Vec<String> {
+fn parameters_text(fit: &FitSummary, optimizer: Optimizer, rows_html: &[String]) -> Vec<String> {
     let table = format!(
         "<table><tr><th>parameter</th><th>value</th><th>std. error</th><th>unit</th><th>decided by</th></tr>{}</table>",
         rows_html.join("")
@@ -312,8 +319,14 @@ fn parameters_text(fit: &FitSummary, rows_html: &[String]) -> Vec<String> {
             "Each panel follows one physical parameter through the fit (grey dashed: final value; green dashed: ± one \
              standard error, where it falls inside the panel). {determined} of the {} \
              parameters are determined by the data (standard error at least three times narrower than the prior); the \
-             rest stay near their prior. Standard errors treat samples as independent, so they are lower bounds.",
-            PhysParams::NAMES.len()
+             rest stay near their prior. Standard errors treat samples as independent, so they are lower bounds.{}",
+            PhysParams::NAMES.len(),
+            if optimizer == Optimizer::Lbfgs {
+                " θ is held while the network learns (stage 2), so each line is flat after stage 1: the parameters \
+                 are the physics' own least-squares fit, whatever the network's training did."
+            } else {
+                ""
+            }
         ),
         table,
     ];

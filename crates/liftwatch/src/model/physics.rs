@@ -174,12 +174,6 @@ impl PhysParams {
     /// ∂U/∂θ_k = φ·Kd·s·∂F/∂θ_k   for Δm, M0, F_c, c, m_rope  (∂F/∂θ = g, a, s, v, g·q)
     /// ∂U/∂Kd = φ·s·F    ∂U/∂Ke = |v|    ∂U/∂U0 = 1    ∂U/∂α_down = Kd·s·F when s = −1
     /// ```
-    ///
-    /// The training loss computes the same derivative inline (`loss::phys_eval`), with one
-    /// product grouped differently: the m_rope entry there is (φ·Kd·s)·(g·q), here
-    /// ((φ·Kd·s)·g)·q. The two differ in the last bit for some q, and each is part of a fit
-    /// (this one of the Gauss-Newton stage and the standard errors, that one of stage 2), so
-    /// merging them would change fitted models; they stay two.
     pub fn du_dtheta(
         &self,
         s: i8,

@@ -53,25 +53,16 @@ pub struct VoltageFit<'a> {
 }
 
 impl VoltageFit<'_> {
-    /// Minimises C from `z`, counting iterations in `iteration`; returns ẑ and the diagonal of
-    /// H at the last linearisation (the curvature of C along each z_k).
+    /// Minimises C from `z`, counting iterations in `iteration`; returns ẑ.
     ///
     /// # Errors
     /// [`Error::Unidentifiable`] when C is not finite at the end (the fit diverged).
-    pub fn solve(
-        &self,
-        mut z: [f64; N_PHYS],
-        iteration: &mut usize,
-    ) -> Result<([f64; N_PHYS], [f64; N_PHYS])> {
+    pub fn solve(&self, mut z: [f64; N_PHYS], iteration: &mut usize) -> Result<[f64; N_PHYS]> {
         let mut mu = MU_START;
         let mut c = self.cost(&z);
-        let mut curvature = [1.0; N_PHYS];
         for _ in 0..MAX_ITER {
             *iteration += 1;
             let (h, g) = self.normal_equations(&z);
-            for (k, c) in curvature.iter_mut().enumerate() {
-                *c = h.get(k, k);
-            }
             let mut improved = false;
             for _ in 0..MAX_DAMPING_TRIES {
                 let mut hd = h.clone();
@@ -95,7 +86,7 @@ impl VoltageFit<'_> {
                     mu = (mu * MU_SHRINK).max(MU_MIN);
                     improved = true;
                     if rel < REL_TOL {
-                        return Ok((z, curvature));
+                        return Ok(z);
                     }
                     break;
                 }
@@ -108,7 +99,7 @@ impl VoltageFit<'_> {
         if !c.is_finite() {
             return Err(Error::Unidentifiable("the physical fit diverged".into()));
         }
-        Ok((z, curvature))
+        Ok(z)
     }
 
     /// C(z).

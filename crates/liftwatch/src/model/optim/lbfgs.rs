@@ -1,12 +1,14 @@
 //! Stage 4, the default stage-2 solver: L-BFGS (Nocedal & Wright, Alg. 7.4 and 7.5) with a
-//! diagonal preconditioner and a backtracking Armijo line search.
+//! backtracking Armijo line search.
 //!
 //! ```text
-//! y = p·x                          p: diagonal preconditioner, f(y) = L(y/p), ∇_y f = ∇_x L / p
 //! d = −H·∇f                        two-loop recursion over the last M pairs (s, y),
 //!                                  H₀ = (sᵀy/yᵀy)·I, or I/‖∇f‖ before the first pair
-//! y ← y + t·d,  t = 1, ½, ¼, …     first t with f(y + t·d) ≤ f(y) + c₁·t·∇fᵀd
+//! x ← x + t·d,  t = 1, ½, ¼, …     first t with f(x + t·d) ≤ f(x) + c₁·t·∇fᵀd
 //! ```
+//!
+//! (A diagonal preconditioner scaled θ by its Gauss-Newton curvature while θ and the network
+//! were fitted together; with θ held in stage 2 the network's weights need none.)
 //!
 //! A pair (s, y) enters the memory only when sᵀy > 10⁻¹²·‖s‖·‖y‖ (the curvature condition);
 //! a direction that is not a descent direction clears the memory and restarts from steepest
@@ -18,8 +20,12 @@
 
 use crate::model::optim::{IterObserver, Problem};
 
-/// M: pairs (s, y) kept in the memory.
-const MEMORY: usize = 10;
+/// M: pairs (s, y) kept in the memory. The network's loss has many directions of different
+/// curvature, and ten pairs (the textbook's 3-20) forget them fast: at the default 1500
+/// iterations on a week of 1 Hz data, thirty pairs end at a 3.3 % lower loss (RMS r_U 1.505
+/// -> 1.463 V), sixty at about the same again; a pair costs two dot products and two updates of
+/// 379 numbers per iteration, against a pass over thousands of samples.
+const MEMORY: usize = 30;
 /// c₁ of the Armijo condition: the share of the predicted decrease a step must achieve.
 const ARMIJO_C1: f64 = 1e-4;
 /// Halvings of the step the line search tries before it gives up.
@@ -35,22 +41,18 @@ const PLATEAU_GAIN: f64 = 1e-4;
 /// ‖∇f‖ below which the minimum is reached.
 const GRAD_TOL: f64 = 1e-9;
 
-/// Minimises `problem` from `x0`, working in y = `pre`·x (`pre` a diagonal preconditioner, so
-/// that the curvature the method meets is near one), for at most `max_iter` iterations, calling
-/// `on_iter` after each accepted step; returns the iterations run and the final x.
+/// Minimises `problem` from `x0` for at most `max_iter` iterations, calling `on_iter` after
+/// each accepted step; returns the iterations run and the final x.
 pub fn minimise<P: Problem>(
     problem: &P,
     x0: &[f64],
-    pre: &[f64],
     max_iter: usize,
     on_iter: IterObserver<'_, P::Stats>,
 ) -> (usize, Vec<f64>) {
     let n = x0.len();
-    let scaled = Scaled { problem, pre };
-    let mut xs = x0.to_vec();
-    let mut x: Vec<f64> = (0..n).map(|i| x0[i] * pre[i]).collect();
+    let mut x = x0.to_vec();
     let mut g = vec![0.0; n];
-    let (mut f, _) = scaled.eval(&x, &mut xs, &mut g);
+    let (mut f, _) = problem.eval(&x, Some(&mut g));
     let mut memory = Memory::default();
     let mut gn = vec![0.0; n];
     let mut xn = vec![0.0; n];
@@ -70,9 +72,8 @@ pub fn minimise<P: Problem>(
             f,
             slope,
         };
-        let Some((fnew, st)) = step.run(&scaled, &mut xn, &mut xs, &mut gn) else {
-            finish(&x, &mut xs, pre);
-            return (it - 1, xs);
+        let Some((fnew, st)) = step.run(problem, &mut xn, &mut gn) else {
+            return (it - 1, x);
         };
         let s: Vec<f64> = (0..n).map(|i| xn[i] - x[i]).collect();
         let y: Vec<f64> = (0..n).map(|i| gn[i] - g[i]).collect();
@@ -80,41 +81,22 @@ pub fn minimise<P: Problem>(
         x.copy_from_slice(&xn);
         g.copy_from_slice(&gn);
         f = fnew;
-        finish(&x, &mut xs, pre);
-        on_iter(it, f, st, &xs);
+        on_iter(it, f, st, &x);
         recent.push(f);
         if recent.len() > PLATEAU {
             let old = recent.remove(0);
             if (old - f) < PLATEAU_GAIN * f.abs() {
-                return (it, xs);
+                return (it, x);
             }
         }
         if norm(&g) < GRAD_TOL {
-            return (it, xs);
+            return (it, x);
         }
     }
-    (max_iter, xs)
+    (max_iter, x)
 }
 
-/// The problem seen in the preconditioned unknowns y = p·x.
-struct Scaled<'a, P> {
-    problem: &'a P,
-    pre: &'a [f64],
-}
-
-impl<P: Problem> Scaled<'_, P> {
-    /// f(y) = L(y/p) with ∇_y f = ∇_x L / p into `g`; leaves x = y/p in `xs`.
-    fn eval(&self, y: &[f64], xs: &mut [f64], g: &mut [f64]) -> (f64, P::Stats) {
-        finish(y, xs, self.pre);
-        let r = self.problem.eval(xs, Some(g));
-        for (gi, pi) in g.iter_mut().zip(self.pre) {
-            *gi /= pi;
-        }
-        r
-    }
-}
-
-/// The last [`MEMORY`] pairs s = Δy, y = Δ∇f with ρ = 1/sᵀy.
+/// The last [`MEMORY`] pairs s = Δx, y = Δ∇f with ρ = 1/sᵀy.
 #[derive(Default)]
 struct Memory {
     s: Vec<Vec<f64>>,
@@ -181,9 +163,8 @@ impl LineSearch<'_> {
     /// [`MAX_HALVINGS`] failures.
     fn run<P: Problem>(
         &self,
-        problem: &Scaled<'_, P>,
+        problem: &P,
         xn: &mut [f64],
-        xs: &mut [f64],
         gn: &mut [f64],
     ) -> Option<(f64, P::Stats)> {
         let mut step = 1.0;
@@ -191,20 +172,13 @@ impl LineSearch<'_> {
             for ((xn_i, x_i), d_i) in xn.iter_mut().zip(self.x).zip(self.d) {
                 *xn_i = x_i + step * d_i;
             }
-            let (fnew, st) = problem.eval(xn, xs, gn);
+            let (fnew, st) = problem.eval(xn, Some(&mut *gn));
             if fnew.is_finite() && fnew <= self.f + ARMIJO_C1 * step * self.slope {
                 return Some((fnew, st));
             }
             step *= 0.5;
         }
         None
-    }
-}
-
-/// x = y/p into `xs`.
-fn finish(y: &[f64], xs: &mut [f64], pre: &[f64]) {
-    for ((x_i, y_i), p_i) in xs.iter_mut().zip(y).zip(pre) {
-        *x_i = y_i / p_i;
     }
 }
 
@@ -252,7 +226,7 @@ mod tests {
     fn lbfgs_finds_the_bottom_of_an_ill_conditioned_valley_and_stops_early() {
         let x0 = vec![0.0; 7];
         let mut seen = 0;
-        let (it, x) = minimise(&Valley, &x0, &[1.0; 7], 500, &mut |_, _, _, _| seen += 1);
+        let (it, x) = minimise(&Valley, &x0, 500, &mut |_, _, _, _| seen += 1);
         assert!(it < 500 && it == seen, "{it} iterations, {seen} observed");
         for v in &x {
             assert!((v - 1.0).abs() < 1e-4, "{x:?}");

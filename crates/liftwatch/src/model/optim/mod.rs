@@ -34,5 +34,29 @@ impl Problem for Objective<'_> {
     }
 }
 
+/// `problem` with its first `held` unknowns held where they start: their gradient reads 0, so
+/// a quasi-Newton solver never moves them.
+pub struct Holding<'a, P> {
+    /// The whole problem.
+    pub problem: &'a P,
+    /// Unknowns held, from the first.
+    pub held: usize,
+}
+
+impl<P: Problem> Problem for Holding<'_, P> {
+    type Stats = P::Stats;
+
+    fn eval(&self, x: &[f64], grad: Option<&mut [f64]>) -> (f64, P::Stats) {
+        match grad {
+            Some(g) => {
+                let r = self.problem.eval(x, Some(&mut *g));
+                g[..self.held].iter_mut().for_each(|v| *v = 0.0);
+                r
+            }
+            None => self.problem.eval(x, None),
+        }
+    }
+}
+
 /// Called after every iteration with (iteration, value, statistics, parameters).
 pub type IterObserver<'a, S> = &'a mut dyn FnMut(usize, f64, S, &[f64]);

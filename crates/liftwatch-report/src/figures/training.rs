@@ -75,7 +75,14 @@ pub(super) fn training(c: &Ctx) -> Section {
     let h = &fit.history;
     let (it, x0, x1) = iterations(h);
     let x = Axis::new(x0, x1, "iteration");
-    let stage2 = h.iter().find(|p| p.stage >= 2).map(|p| p.iteration as f64);
+    // Stage 2 starts where stage 1's last point stands (its first logged point comes
+    // `log_every` iterations later).
+    let stage2 = h
+        .iter()
+        .any(|p| p.stage >= 2)
+        .then(|| h.iter().filter(|p| p.stage == 1).map(|p| p.iteration).max())
+        .flatten()
+        .map(|it| it as f64);
     let loss: Vec<f64> = h.iter().map(|p| p.loss).collect();
     let ru: Vec<f64> = h.iter().map(|p| p.rms_u_v).collect();
     let rf: Vec<f64> = h.iter().map(|p| p.rms_f_n).collect();

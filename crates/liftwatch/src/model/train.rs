@@ -440,6 +440,14 @@ pub fn train(
     let mut x = vec![0.0; N_UNKNOWNS];
     x[..N_PHYS].copy_from_slice(&z);
     x[N_PHYS..].copy_from_slice(&net0.weights);
+    // Stage 1's path, each point's loss that of the hybrid objective with δ ≡ 0 (its
+    // weights are set by stage 1's end, so the points are logged now).
+    for (it, zk) in &stage1.path {
+        let mut xk = x.clone();
+        xk[..N_PHYS].copy_from_slice(zk);
+        let (loss, st) = obj.eval(&xk, None);
+        history.log(point(1, *it, loss, st, &map, &xk));
+    }
     let (loss1, st1) = obj.eval(&x, None);
     history.log(point(1, iteration, loss1, st1, &map, &x));
 
@@ -500,6 +508,9 @@ struct PhysicsFit {
     sigma_u: f64,
     /// Gauss-Newton iterations run.
     iteration: usize,
+    /// (iteration, z) from the start (the prior centre, iteration 0) through every accepted
+    /// step before the last: how θ converged, for the training history.
+    path: Vec<(usize, [f64; N_PHYS])>,
 }
 
 /// Stage 1: physics alone, Gauss-Newton with Levenberg damping, σ_U re-estimated after each
@@ -515,6 +526,7 @@ fn fit_physics(
     let mut sigma_u = SIGMA_U_START * elevator.rated_voltage();
     let mut z = [0.0; N_PHYS];
     let mut iteration = 0;
+    let mut path = vec![(0, z)];
     for _round in 0..SIGMA_ROUNDS {
         let problem = VoltageFit {
             data,
@@ -524,7 +536,7 @@ fn fit_physics(
             sigma_u,
             w_p,
         };
-        z = problem.solve(z, &mut iteration)?;
+        z = problem.solve(z, &mut iteration, &mut |it, z| path.push((it, *z)))?;
         let p = map.theta(&z);
         sigma_u = robust_sigma(
             data.iter()
@@ -533,10 +545,12 @@ fn fit_physics(
         )
         .max(SIGMA_FLOOR);
     }
+    path.retain(|(it, _)| *it < iteration);
     Ok(PhysicsFit {
         z,
         sigma_u,
         iteration,
+        path,
     })
 }
 

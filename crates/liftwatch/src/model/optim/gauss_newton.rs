@@ -53,11 +53,17 @@ pub struct VoltageFit<'a> {
 }
 
 impl VoltageFit<'_> {
-    /// Minimises C from `z`, counting iterations in `iteration`; returns ẑ.
+    /// Minimises C from `z`, counting iterations in `iteration` and calling `on_step` with
+    /// the iteration and z after each accepted step; returns ẑ.
     ///
     /// # Errors
     /// [`Error::Unidentifiable`] when C is not finite at the end (the fit diverged).
-    pub fn solve(&self, mut z: [f64; N_PHYS], iteration: &mut usize) -> Result<[f64; N_PHYS]> {
+    pub fn solve(
+        &self,
+        mut z: [f64; N_PHYS],
+        iteration: &mut usize,
+        on_step: &mut dyn FnMut(usize, &[f64; N_PHYS]),
+    ) -> Result<[f64; N_PHYS]> {
         let mut mu = MU_START;
         let mut c = self.cost(&z);
         for _ in 0..MAX_ITER {
@@ -85,6 +91,7 @@ impl VoltageFit<'_> {
                     c = cn;
                     mu = (mu * MU_SHRINK).max(MU_MIN);
                     improved = true;
+                    on_step(*iteration, &z);
                     if rel < REL_TOL {
                         return Ok(z);
                     }

@@ -232,6 +232,41 @@ fn the_physics_does_not_depend_on_how_the_network_was_trained() {
 }
 
 #[test]
+fn the_history_follows_theta_from_the_prior_through_stage_one() {
+    // The training history starts at the prior centre (iteration 0), logs every accepted
+    // Gauss-Newton step, and stage 2 starts at the physics' fit, which it keeps.
+    let e = Elevator::new(1000.0, 1.75, 26);
+    let obs = observations(&paper_exact(&truth(), &e, 1.0, 80, 6), e.floors, 0.1)
+        .unwrap()
+        .obs;
+    let cfg = TrainConfig {
+        epochs: 50,
+        log_every: 10,
+        ..TrainConfig::default()
+    };
+    let fit = train(&obs, &e, &cfg, &mut |_| {}).unwrap();
+    let h = &fit.summary.history;
+    let stage1: Vec<&TrainPoint> = h.iter().filter(|p| p.stage == 1).collect();
+    assert!(stage1.len() > 3, "{} stage-1 points", stage1.len());
+    assert_eq!(stage1[0].iteration, 0);
+    let centre = Prior::for_elevator(&e).centre.to_array();
+    for (a, b) in stage1[0].theta.iter().zip(centre) {
+        assert!(
+            (a - b).abs() <= 1e-12 * b.abs(),
+            "{a} against the prior's {b}"
+        );
+    }
+    assert!(stage1.windows(2).all(|w| w[0].iteration < w[1].iteration));
+    let last = stage1[stage1.len() - 1];
+    assert_eq!(last.theta, fit.parameters.to_array());
+    assert!(last.loss < stage1[0].loss);
+    assert!(h
+        .iter()
+        .filter(|p| p.stage == 2)
+        .all(|p| p.theta == last.theta && p.iteration > last.iteration));
+}
+
+#[test]
 fn too_little_motion_is_refused() {
     let e = Elevator::new(1000.0, 1.75, 26);
     let rows = paper_exact(&truth(), &e, 2.0, 3, 5);

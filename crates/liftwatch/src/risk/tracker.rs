@@ -101,9 +101,22 @@ impl Accumulator {
 
     /// One trip with its excess x ≥ 0 already formed: D, R = γ·R + x·exp(κ·min(D, D_max)).
     pub fn add(&mut self, x: f64, cfg: &RiskConfig) {
-        self.d = if x > 0.0 { self.d.saturating_add(1) } else { 0 };
-        let gain = (cfg.kappa * f64::from(self.d).min(cfg.d_max_trips)).exp();
-        self.r = cfg.gamma * self.r + x * gain;
+        if x > 0.0 {
+            self.d = self.d.saturating_add(1);
+            let gain = (cfg.kappa * f64::from(self.d).min(cfg.d_max_trips)).exp();
+            self.r = cfg.gamma * self.r + x * gain;
+        } else {
+            // Most healthy trips: nothing to add, and no exponential to take. A risk that has
+            // decayed below the smallest normal float is none: left to decay on, it becomes a
+            // subnormal number, whose every multiplication takes the processor a slow path of
+            // about a hundred cycles (R and its three lenses were a quarter of the
+            // calibration's bootstrap, spent on numbers below 1e-308).
+            self.d = 0;
+            self.r *= cfg.gamma;
+            if self.r < f64::MIN_POSITIVE {
+                self.r = 0.0;
+            }
+        }
     }
 }
 
@@ -245,7 +258,8 @@ impl RiskTracker {
                     None => joint,
                 };
                 a.z[m] = z.max(0.0);
-                c_modes[m] = a.z[m].ln_1p();
+                // ln(1 + 0) is 0 (and ±0 itself): no logarithm for the common healthy lens.
+                c_modes[m] = if a.z[m] > 0.0 { a.z[m].ln_1p() } else { a.z[m] };
             }
         } else {
             a.drift = [f64::NAN; N_MODES];

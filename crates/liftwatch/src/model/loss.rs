@@ -208,7 +208,7 @@ fn phys_eval(p: &PhysParams, motor_ref: &PhysParams, o: &Obs, m_r: f64) -> PhysE
     // dF/dθ: Δm, m0, f_c, c and m_rope
     let g = crate::elevator::G;
     let df = [g, o.a, s, o.v, 0.0, 0.0, 0.0, 0.0, g * o.q];
-    let du = p.du_dtheta(o.s, o.v, o.lambda, o.a, o.q, m_r);
+    let du = p.du_dtheta_at(o.s, o.v, o.a, o.q, f);
     // F_U through the reference motor model: no gradient flows into θ from here.
     let f_u = motor_ref.force_from_voltage(o.s, o.v, o.u);
     PhysEval { f, u, f_u, du, df }

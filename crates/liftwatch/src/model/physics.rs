@@ -183,9 +183,14 @@ impl PhysParams {
         q: f64,
         rated_load_kg: f64,
     ) -> [f64; N_PHYS] {
+        let f = self.force(s, v, lambda, a, q, rated_load_kg);
+        self.du_dtheta_at(s, v, a, q, f)
+    }
+
+    /// [`Self::du_dtheta`] for a caller that has the force F at the point already.
+    pub fn du_dtheta_at(&self, s: i8, v: f64, a: f64, q: f64, f: f64) -> [f64; N_PHYS] {
         let sf = f64::from(s);
         let k = self.phi(s) * self.kd * sf;
-        let f = self.force(s, v, lambda, a, q, rated_load_kg);
         [
             k * G,
             k * a,

@@ -164,6 +164,12 @@ fn json_summary(
         "trips": outcome.features.trips.len(),
         "rms_r_voltage_v": finite(f.rms_u_v),
         "rms_r_force_n": finite(f.rms_f_n),
+        "iterations": f.iterations,
+        "stage2_stop": f.stage2_stop.map(|st| serde_json::json!({
+            "reason": st.reason,
+            "recent_gain": finite(st.recent_gain),
+            "converged": st.reason.converged(),
+        })),
         "parameters": parameters,
         "sigma_u_v": m.hybrid.scales.sigma_u_v,
         "sigma_f_n": m.hybrid.scales.sigma_f_n,
@@ -206,6 +212,9 @@ pub fn summary(m: &fit::FittedModel, trips: usize, seconds: f64) -> String {
                 "prior (weakly identifiable)"
             }
         );
+    }
+    if let Some(stop) = &f.stage2_stop {
+        let _ = writeln!(s, "{}", stop.describe(f.iterations));
     }
     for w in &f.warnings {
         let _ = writeln!(s, "note: {w}");

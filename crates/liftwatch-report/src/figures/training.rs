@@ -197,9 +197,12 @@ fn training_text(c: &Ctx) -> Vec<String> {
             "θ and the correcting network together by Adam from the prior, as the paper trains"
         }
     };
+    let stop = fit.stage2_stop.map_or_else(String::new, |st| {
+        format!(" S{}.", st.describe(fit.iterations).trim_start_matches('s'))
+    });
     vec![format!(
         "The fit has two stages: Gauss-Newton on the physical parameters θ alone (stage 1), then {stage2} \
-         (stage 2, {} iterations). The loss went from {} to {} (a factor {}; {} at the end of stage 1). Final RMS \
+         (stage 2, {} iterations). The loss went from {} to {} (a factor {}; {} at the end of stage 1).{stop} Final RMS \
          residuals on the {} moving training samples: r_U {} V and r_F {} N; the healthy scales that make residuals \
          dimensionless are σ_U = {} V and σ_F = {} N.",
         fit.iterations,

@@ -34,6 +34,8 @@
 //! Here: the observations (data preparation), the driver [`train`] and its history; the
 //! solvers are in [`optim`](crate::model::optim), the standard errors in `train/report.rs`.
 
+use std::collections::VecDeque;
+
 use serde::{Deserialize, Serialize};
 
 use crate::elevator::Elevator;
@@ -43,7 +45,7 @@ use crate::linalg::SquareMatrix;
 use crate::model::loss::{LossStats, LossWeights, Objective, Obs, ParamMap, Prior, N_UNKNOWNS};
 use crate::model::net::{InputDomain, ResidualNet};
 use crate::model::optim::gauss_newton::VoltageFit;
-use crate::model::optim::{adam, lbfgs, Holding};
+use crate::model::optim::{adam, lbfgs, Holding, Stop};
 use crate::model::physics::{PhysParams, N_PHYS};
 use crate::model::ResidualScales;
 
@@ -52,7 +54,7 @@ mod report;
 mod tests;
 
 pub use crate::stats::robust_sigma;
-pub use report::{FitSummary, ParamReport};
+pub use report::{FitSummary, ParamReport, Stage2Stop};
 
 /// Rounds of stage 1: Gauss-Newton at a fixed σ_U, then σ_U re-estimated from its residuals.
 const SIGMA_ROUNDS: usize = 3;
@@ -452,7 +454,7 @@ pub fn train(
     history.log(point(1, iteration, loss1, st1, &map, &x));
 
     // Stage 2.
-    let iters = fit_hybrid(&obj, &mut x, cfg, iteration, &mut history);
+    let (iters, stage2_stop) = fit_hybrid(&obj, &mut x, cfg, iteration, &mut history);
     let (loss_final, st) = obj.eval(&x, None);
     if history.points.last().map(|p| p.iteration) != Some(iteration + iters) {
         history.log(point(2, iteration + iters, loss_final, st, &map, &x));
@@ -476,6 +478,7 @@ pub fn train(
         loss_stage1: loss1,
         loss_final,
         iterations: iters,
+        stage2_stop,
         warnings,
     };
     Ok(Trained {
@@ -556,14 +559,15 @@ fn fit_physics(
 
 /// Stage 2 from `x` with the configured optimiser: L-BFGS fits the network with θ held at
 /// stage 1's; Adam fits both from the prior centre, as the paper does. Logs every
-/// `cfg.log_every` iterations and the last; returns the iterations run.
+/// `cfg.log_every` iterations and the last; returns the iterations run and how it ended
+/// (`None` when no iteration ran).
 fn fit_hybrid(
     obj: &Objective<'_>,
     x: &mut Vec<f64>,
     cfg: &TrainConfig,
     iteration: usize,
     history: &mut History<'_>,
-) -> usize {
+) -> (usize, Option<Stage2Stop>) {
     if cfg.optimizer == Optimizer::Adam {
         x[..N_PHYS].iter_mut().for_each(|v| *v = 0.0); // the paper starts from the prior
     }
@@ -572,23 +576,40 @@ fn fit_hybrid(
     } else {
         cfg.log_every
     };
+    // The losses of the last PLATEAU iterations and the one before them.
+    let mut recent = VecDeque::with_capacity(lbfgs::PLATEAU + 2);
     let mut on_iter = |it: usize, loss: f64, st: LossStats, x: &[f64]| {
+        if recent.len() > lbfgs::PLATEAU {
+            recent.pop_front();
+        }
+        recent.push_back(loss);
         if it % every == 0 || it == cfg.epochs {
             history.log(point(2, iteration + it, loss, st, &obj.map, x));
         }
     };
-    match cfg.optimizer {
+    let (it, reason) = match cfg.optimizer {
         Optimizer::Lbfgs => {
             let network = Holding {
                 problem: obj,
                 held: N_PHYS,
             };
-            let (it, xf) = lbfgs::minimise(&network, x, cfg.epochs, &mut on_iter);
+            let (it, xf, stop) = lbfgs::minimise(&network, x, cfg.epochs, &mut on_iter);
             *x = xf;
-            it
+            (it, stop)
         }
-        Optimizer::Adam => adam::minimise(obj, x, cfg.epochs, cfg.learning_rate, &mut on_iter),
-    }
+        Optimizer::Adam => (
+            adam::minimise(obj, x, cfg.epochs, cfg.learning_rate, &mut on_iter),
+            Stop::Budget,
+        ),
+    };
+    let stop = match (recent.front(), recent.back()) {
+        (Some(first), Some(last)) if it > 0 => Some(Stage2Stop {
+            reason,
+            recent_gain: (first - last) / last.abs(),
+        }),
+        _ => None,
+    };
+    (it, stop)
 }
 
 /// Healthy scales σ_U, σ_F: robust deviations of the final residuals of moving samples.

@@ -17,8 +17,9 @@
 //! Stopping rule: after `max_iter` iterations; or when the last 50 iterations gained less than
 //! 10⁻⁴ of the loss (past that the network only polishes noise); or when ‖∇f‖ < 10⁻⁹; or when
 //! the line search finds no acceptable step in 40 halvings (that iteration is not counted).
+//! Which of the four it was comes back as a [`Stop`], and the model file states it.
 
-use crate::model::optim::{IterObserver, Problem};
+use crate::model::optim::{IterObserver, Problem, Stop};
 
 /// M: pairs (s, y) kept in the memory. The network's loss has many directions of different
 /// curvature, and ten pairs (the textbook's 3-20) forget them fast: at the default 1500
@@ -35,20 +36,20 @@ const MIN_CURVATURE: f64 = 1e-12;
 /// Floor of ‖∇f‖ where the steepest-descent direction is normalised by it.
 const MIN_GRAD_NORM: f64 = 1e-12;
 /// Iterations over which the plateau test measures the gain.
-const PLATEAU: usize = 50;
+pub const PLATEAU: usize = 50;
 /// Relative gain over [`PLATEAU`] iterations below which the loss has converged.
-const PLATEAU_GAIN: f64 = 1e-4;
+pub const PLATEAU_GAIN: f64 = 1e-4;
 /// ‖∇f‖ below which the minimum is reached.
-const GRAD_TOL: f64 = 1e-9;
+pub const GRAD_TOL: f64 = 1e-9;
 
 /// Minimises `problem` from `x0` for at most `max_iter` iterations, calling `on_iter` after
-/// each accepted step; returns the iterations run and the final x.
+/// each accepted step; returns the iterations run, the final x and why it stopped.
 pub fn minimise<P: Problem>(
     problem: &P,
     x0: &[f64],
     max_iter: usize,
     on_iter: IterObserver<'_, P::Stats>,
-) -> (usize, Vec<f64>) {
+) -> (usize, Vec<f64>, Stop) {
     let n = x0.len();
     let mut x = x0.to_vec();
     let mut g = vec![0.0; n];
@@ -73,7 +74,7 @@ pub fn minimise<P: Problem>(
             slope,
         };
         let Some((fnew, st)) = step.run(problem, &mut xn, &mut gn) else {
-            return (it - 1, x);
+            return (it - 1, x, Stop::LineSearch);
         };
         let s: Vec<f64> = (0..n).map(|i| xn[i] - x[i]).collect();
         let y: Vec<f64> = (0..n).map(|i| gn[i] - g[i]).collect();
@@ -86,14 +87,14 @@ pub fn minimise<P: Problem>(
         if recent.len() > PLATEAU {
             let old = recent.remove(0);
             if (old - f) < PLATEAU_GAIN * f.abs() {
-                return (it, x);
+                return (it, x, Stop::Plateau);
             }
         }
         if norm(&g) < GRAD_TOL {
-            return (it, x);
+            return (it, x, Stop::Gradient);
         }
     }
-    (max_iter, x)
+    (max_iter, x, Stop::Budget)
 }
 
 /// The last [`MEMORY`] pairs s = Δx, y = Δ∇f with ρ = 1/sᵀy.
@@ -226,10 +227,14 @@ mod tests {
     fn lbfgs_finds_the_bottom_of_an_ill_conditioned_valley_and_stops_early() {
         let x0 = vec![0.0; 7];
         let mut seen = 0;
-        let (it, x) = minimise(&Valley, &x0, 500, &mut |_, _, _, _| seen += 1);
+        let (it, x, stop) = minimise(&Valley, &x0, 500, &mut |_, _, _, _| seen += 1);
         assert!(it < 500 && it == seen, "{it} iterations, {seen} observed");
+        assert!(stop.converged(), "{stop:?}");
         for v in &x {
             assert!((v - 1.0).abs() < 1e-4, "{x:?}");
         }
+        // Three iterations are not enough: the budget stops it, and says so.
+        let (it, _, stop) = minimise(&Valley, &x0, 3, &mut |_, _, _, _| {});
+        assert_eq!((it, stop), (3, Stop::Budget));
     }
 }

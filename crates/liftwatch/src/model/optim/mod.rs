@@ -15,7 +15,33 @@ pub mod adam;
 pub mod gauss_newton;
 pub mod lbfgs;
 
+use serde::{Deserialize, Serialize};
+
 use crate::model::loss::{LossStats, Objective};
+
+/// Why a stage-2 solver stopped. Stated in the model file (`fit.stage2_stop`), so a fit its
+/// budget cut short is told apart from one that converged.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Stop {
+    /// The iteration budget ran out (`TrainConfig::epochs`; Adam always runs it out).
+    Budget,
+    /// The last [`lbfgs::PLATEAU`] iterations gained less than [`lbfgs::PLATEAU_GAIN`] of the
+    /// loss: converged as far as the loss can tell.
+    Plateau,
+    /// The gradient's norm fell below [`lbfgs::GRAD_TOL`]: at a minimum.
+    Gradient,
+    /// The line search found no step that lowers the loss: at a minimum within rounding, or
+    /// stuck.
+    LineSearch,
+}
+
+impl Stop {
+    /// True for the criteria of convergence, false when something else stopped the solver.
+    pub fn converged(self) -> bool {
+        matches!(self, Stop::Plateau | Stop::Gradient)
+    }
+}
 
 /// A smooth objective over a flat parameter vector: value and gradient.
 pub trait Problem {

@@ -15,6 +15,7 @@ use serde::{Deserialize, Serialize};
 use crate::linalg::SquareMatrix;
 use crate::model::loss::{Obs, Prior};
 use crate::model::net::ResidualNet;
+use crate::model::optim::Stop;
 use crate::model::physics::{PhysParams, N_PHYS};
 use crate::model::train::TrainPoint;
 use crate::stats::robust_sigma;
@@ -48,6 +49,41 @@ pub struct ParamReport {
     pub determined: bool,
 }
 
+/// Why stage 2 stopped, and how far its loss still fell at the end.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Stage2Stop {
+    /// Why the solver stopped.
+    pub reason: Stop,
+    /// Relative fall of the loss over the last [`PLATEAU`](crate::model::optim::lbfgs::PLATEAU) iterations (or as many as
+    /// ran), (L_k−50 − L_k)/L_k: below [`PLATEAU_GAIN`](crate::model::optim::lbfgs::PLATEAU_GAIN) the network has converged as
+    /// far as the loss can tell; above it, the budget stopped a loss still falling by this
+    /// share every 50 iterations.
+    #[serde(with = "crate::exact")]
+    pub recent_gain: f64,
+}
+
+impl Stage2Stop {
+    /// One line for people: how many iterations ran, why they stopped, and how much the loss
+    /// still fell at the end.
+    pub fn describe(&self, iterations: usize) -> String {
+        let gain = 100.0 * self.recent_gain;
+        match self.reason {
+            Stop::Budget => format!(
+                "stage 2 ran its budget of {iterations} iterations, the loss still falling {gain:.2} % over the last 50 (not converged: `--epochs` sets the budget)"
+            ),
+            Stop::Plateau => format!(
+                "stage 2 converged after {iterations} iterations: the loss fell {gain:.4} % over the last 50"
+            ),
+            Stop::Gradient => {
+                format!("stage 2 converged after {iterations} iterations: the gradient vanished")
+            }
+            Stop::LineSearch => format!(
+                "stage 2 stopped after {iterations} iterations: no step lowered the loss any more"
+            ),
+        }
+    }
+}
+
 /// Everything the fit found besides the model itself.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct FitSummary {
@@ -69,6 +105,10 @@ pub struct FitSummary {
     pub loss_final: f64,
     /// Stage-2 iterations run.
     pub iterations: usize,
+    /// How stage 2 ended; `None` when it did not run (`epochs` 0) and in models written
+    /// before it was kept.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stage2_stop: Option<Stage2Stop>,
     /// Warnings about what the data could not determine.
     pub warnings: Vec<String>,
 }

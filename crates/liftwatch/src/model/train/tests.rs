@@ -193,6 +193,28 @@ fn the_network_corrects_what_the_physics_cannot_represent() {
         "{}",
         h_fit.summary.iterations
     );
+    // The model says so: stopped on the plateau, the last 50 iterations' gain below it. The
+    // physics-only fit ran no stage 2 and states none.
+    let stop = h_fit.summary.stage2_stop.expect("stage 2 ran");
+    assert_eq!(stop.reason, crate::model::optim::Stop::Plateau);
+    assert!(
+        (0.0..crate::model::optim::lbfgs::PLATEAU_GAIN).contains(&stop.recent_gain),
+        "{stop:?}"
+    );
+    assert_eq!(p_fit.summary.stage2_stop, None);
+    // Cut short by a budget of 20 iterations, it says that instead, with the loss still
+    // falling well beyond the plateau's gain.
+    let short = TrainConfig {
+        epochs: 20,
+        ..hybrid.clone()
+    };
+    let s_fit = train(&obs, &e, &short, &mut |_| {}).unwrap();
+    let stop = s_fit.summary.stage2_stop.expect("stage 2 ran");
+    assert_eq!(stop.reason, crate::model::optim::Stop::Budget);
+    assert!(
+        stop.recent_gain > 10.0 * crate::model::optim::lbfgs::PLATEAU_GAIN,
+        "{stop:?}"
+    );
     // θ is the physics' own fit, which the bump moves little: Kd within 1 %.
     assert_eq!(h_fit.parameters, p_fit.parameters);
     assert!(

@@ -69,7 +69,7 @@ impl Stage2Stop {
         let gain = 100.0 * self.recent_gain;
         match self.reason {
             Stop::Budget => format!(
-                "stage 2 ran its budget of {iterations} iterations, the loss still falling {gain:.2} % over the last 50 (not converged: `--epochs` sets the budget)"
+                "stage 2 ran its budget of {iterations} iterations, the loss still falling {gain:.2} % over the last 50 (not converged; --epochs sets the budget)"
             ),
             Stop::Plateau => format!(
                 "stage 2 converged after {iterations} iterations: the loss fell {gain:.4} % over the last 50"

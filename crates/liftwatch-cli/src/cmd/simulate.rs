@@ -30,7 +30,9 @@ pub struct Args {
     /// Machine degradation.
     #[arg(long, value_enum, default_value_t = ScenarioArg::Healthy)]
     pub scenario: ScenarioArg,
-    /// Seed: the same seed gives the same elevator and telemetry.
+    /// Seed: the same seed gives the same elevator and telemetry; another seed draws another
+    /// plant too (masses, friction, Kd, sensors), so hold out later days of one seed, not
+    /// another seed, to test a model of this elevator.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
     /// Rated load (kg).

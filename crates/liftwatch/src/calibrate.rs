@@ -86,7 +86,7 @@ pub const AMBIENT_MIN_SPAN_S: f64 = 2.0 * DAY_S;
 /// copper's 0.39 %/K (MODEL.md puts the whole thermal range, ambient and self-heating, at
 /// 10-20 %). The paper's 3 hours of a morning know nothing of the afternoon: its thresholds
 /// are set as if each drawn day of the bootstrap sat at another, unknown phase of such a cycle
-/// ([`HourWander`]). Measured on the evaluation with 3-hour trainings (07:00-10:00): all 60
+/// (`HourWander`). Measured on the evaluation with 3-hour trainings (07:00-10:00): all 60
 /// false advisories in 1.7 elevator-years were the motor's, at +1.2 to +1.9 % of Kd, most of
 /// them at 13:30 and 18:00.
 pub const UNSEEN_AMBIENT_SWING: f64 = 0.0156;
@@ -148,13 +148,13 @@ pub struct CalibrationReport {
     /// False advisories per year in an independent bootstrap run with the chosen thresholds.
     pub validated_false_advisories_per_year: f64,
     /// sd of the hour-to-hour level of each signature coefficient (motor, brake, friction)
-    /// as the training measured it ([`HourWander`]); 0 in models calibrated before it was
+    /// as the training measured it (`HourWander`); 0 in models calibrated before it was
     /// measured.
     #[serde(default)]
     pub hour_wander: [f64; N_MODES],
     /// sd of the hour-to-hour level the bootstrap draws new hours from, per signature: the
-    /// upper [`HOUR_WANDER_CONFIDENCE`] bound of [`CalibrationReport::hour_wander`] given
-    /// the hours it was measured on ([`HourWander`]); 0 when no hours were measured (fewer
+    /// upper `HOUR_WANDER_CONFIDENCE` bound of [`CalibrationReport::hour_wander`] given
+    /// the hours it was measured on (`HourWander`); 0 when no hours were measured (fewer
     /// than three) and in models calibrated before it was kept.
     #[serde(default)]
     pub hour_wander_drawn: [f64; N_MODES],
@@ -416,7 +416,7 @@ pub fn calibrate(
 /// error, and its level along signature m alone (as the CUSUMs and θ0's day spread read it)
 /// −A_m·δθ/W_mm. δθ's covariance is the fit's Gauss-Newton
 /// covariance C made robust to residuals that are correlated within an hour (a sandwich
-/// with the hours as clusters, as [`HourWander`] finds the hours' levels wander):
+/// with the hours as clusters, as `HourWander` finds the hours' levels wander):
 ///
 /// ```text
 /// over the training's moving samples (weights w as in the evidence, signatures x, J = ∂U/∂θ,

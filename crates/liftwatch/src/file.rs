@@ -5,7 +5,7 @@
 //!
 //! The document keeps the layout of format version 1: the hybrid model's fields at the top
 //! level, and the sensor limits, the baseline's limits and the calibration report inside
-//! `risk`. In memory each belongs to its own stage ([`FittedModel`]); [`ModelDocument`] maps
+//! `risk`. In memory each belongs to its own stage ([`FittedModel`]); `ModelDocument` maps
 //! one onto the other, so models written by earlier builds still load.
 
 use std::path::Path;

@@ -9,7 +9,7 @@
 //! subsystem beside the machine with its own advisory. [`sensor`] tells a broken sensor from a broken machine;
 //! [`baseline`] is the conventional fixed-threshold method with the same output;
 //! [`calibrate`] sets the risk thresholds from healthy trips; [`fit`] runs the whole
-//! identification into one artefact, [`fit::FittedModel`], whose file form is [`file`];
+//! identification into one artefact, [`fit::FittedModel`], whose file form is [`file`](mod@file);
 //! [`monitor`] runs stages 3-7 as one streaming step (and [`monitor::run`] as a batch).
 //! [`sim`] is a seeded traction-elevator simulator that writes raw telemetry; [`evaluate`]
 //! the suite that compares the method with the baselines on it.

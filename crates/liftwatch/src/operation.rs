@@ -768,7 +768,7 @@ pub fn level_offset(landings_m: &[f64], t: &Trip) -> Option<f64> {
         .min_by(f64::total_cmp)
 }
 
-/// Landing heights above the first from the trips' floors and distances: h[to] − h[from] =
+/// Landing heights above the first from the trips' floors and distances: h\[to\] − h\[from\] =
 /// direction·distance, solved by medians in turn (Gauss-Seidel), robust to odd trips. Empty
 /// when some landing was never reached.
 pub fn learn_landings(trips: &[Trip], floors: usize) -> Vec<f64> {

@@ -237,7 +237,7 @@ pub struct SensorLimits {
     #[serde(default = "default_zero_limit")]
     pub load_zero_limit_pct: f64,
     /// Healthy spread of the empty car's parked readings (percent; robust, at least
-    /// [`ZERO_SD_FLOOR_PCT`]); 0 in models written before it was kept (no witness then).
+    /// `ZERO_SD_FLOOR_PCT`); 0 in models written before it was kept (no witness then).
     #[serde(default)]
     pub load_zero_sd_pct: f64,
     /// The healthy rest reading of the voltage ([`RestVoltage`], V); `None` when the training
@@ -346,9 +346,9 @@ impl Default for SensorLimits {
 
 impl SensorLimits {
     /// Calibrates the load-cell zero check on healthy samples (`thr` the motion threshold):
-    /// the median of the parked readings, and a limit of [`ZERO_LIMIT_MARGIN`] times their
-    /// largest deviation from it, at least [`ZERO_LIMIT_FLOOR_PCT`]. A training with fewer
-    /// than [`ZERO_MIN_PARKINGS`] parkings leaves the check off.
+    /// the median of the parked readings, and a limit of `ZERO_LIMIT_MARGIN` times their
+    /// largest deviation from it, at least `ZERO_LIMIT_FLOOR_PCT`. A training with fewer
+    /// than `ZERO_MIN_PARKINGS` parkings leaves the check off.
     pub fn calibrate_load_zero(&mut self, samples: &[Sample], thr: f64) {
         let mut parking = Parking::new();
         let readings: Vec<f64> = samples
@@ -368,10 +368,10 @@ impl SensorLimits {
 
     /// Calibrates the rest-voltage check on healthy samples (`thr` the motion threshold,
     /// `rated_voltage_v` the drive's voltage at rated speed): the median of the stops' rest
-    /// readings; the allowance [`ZERO_LIMIT_MARGIN`] times their largest deviation from it,
+    /// readings; the allowance `ZERO_LIMIT_MARGIN` times their largest deviation from it,
     /// at least [`REST_ALLOWANCE_FRAC`] of the rated voltage; σ their robust spread, at least
-    /// [`REST_SD_FLOOR_FRAC`] of the allowance. A training with fewer than
-    /// [`REST_MIN_STOPS`] stops leaves the check off.
+    /// `REST_SD_FLOOR_FRAC` of the allowance. A training with fewer than
+    /// `REST_MIN_STOPS` stops leaves the check off.
     pub fn calibrate_rest_voltage(&mut self, samples: &[Sample], thr: f64, rated_voltage_v: f64) {
         let mut rest = RestVoltage::default();
         let readings: Vec<f64> = samples.iter().filter_map(|x| rest.push(x, thr)).collect();
@@ -389,7 +389,7 @@ impl SensorLimits {
 }
 
 /// The healthy reference of a witness's `readings` (their median) and how far from it a
-/// reading may lie: [`ZERO_LIMIT_MARGIN`] times their largest deviation, at least `floor`.
+/// reading may lie: `ZERO_LIMIT_MARGIN` times their largest deviation, at least `floor`.
 fn healthy_range(readings: &[f64], floor: f64) -> (f64, f64) {
     let reference = crate::stats::median(readings);
     let widest = readings

@@ -30,7 +30,7 @@ const POW10: [f64; 23] = [
 /// field), no `-0.000`.
 ///
 /// Integer arithmetic instead of `format!`, which formats the exact binary value digit by
-/// digit: several times faster. Values beyond [`MAX_SCALED`] fall back to `format!`.
+/// digit: several times faster. Values beyond `MAX_SCALED` fall back to `format!`.
 pub fn push_fixed(out: &mut Vec<u8>, v: f64, dec: usize) {
     if !v.is_finite() {
         return;

@@ -27,7 +27,7 @@ pub struct Args {
     #[arg(long)]
     pub config: Option<PathBuf>,
     /// MQTT broker to take telemetry from (`liftwatch/{id}/telemetry`) and publish events to
-    /// (`liftwatch/{id}/events`): mqtt://[user:password@]host[:port] (over the config's).
+    /// (`liftwatch/{id}/events`): `mqtt://[user:password@]host[:port]` (over the config's).
     #[arg(long)]
     pub mqtt: Option<String>,
     /// NATS servers (nats://host:port[,…]): run as a worker of the fleet mode on JetStream

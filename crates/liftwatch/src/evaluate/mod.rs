@@ -51,7 +51,7 @@
 //!
 //! The rooms: [`charts`] (CUSUM, EWMA, their calibration), [`trips`] (monitor rows to trip
 //! means), [`suite`] (fleet, cases, training, the monitored runs), [`metrics`] (per method
-//! and case, and their aggregates), [`table`] (the text summary); this module runs it all.
+//! and case, and their aggregates), [`table`](mod@table) (the text summary); this module runs it all.
 
 pub mod aggregate;
 pub mod charts;

@@ -56,7 +56,7 @@ const FIT_MIN_MOVING_S: f64 = 60.0;
 /// Least-squares fit of the load cell's inertial law on history (moving, door closed, valid
 /// samples); returns `cfg` with the load gain k (in [0, 2]) and the platform ratio p (in
 /// [0.01, 2]) replaced, or p alone when the loads do not determine k (see
-/// [`LOAD_GAIN_SE_MAX`]) or do not reject the configured k ([`LAW_REJECT_Z`]).
+/// `LOAD_GAIN_SE_MAX`) or do not reject the configured k (`LAW_REJECT_Z`).
 ///
 /// ```text
 /// g·(L − L_ref)/100 = (k·λ + p)·a                    door closed, load constant

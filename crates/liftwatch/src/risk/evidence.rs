@@ -356,7 +356,7 @@ impl HeatInput {
 
 impl Heating {
     /// Advances to `time` with `input` held since the last sample (at most
-    /// [`HEAT_INPUT_SPAN_S`] of it; before that the input is unknown and holds H), and returns
+    /// `HEAT_INPUT_SPAN_S` of it; before that the input is unknown and holds H), and returns
     /// the basis at `time` (a `Moving` force that is not finite counts as `MovingUnknown`).
     /// Time that runs backwards or is not finite holds H.
     pub fn advance(&mut self, tau_s: f64, time: f64, input: HeatInput) -> [f64; N_HEAT] {

@@ -389,7 +389,7 @@ impl SensorLimits {
 }
 
 /// The healthy reference of a witness's `readings` (their median) and how far from it a
-/// reading may lie: `ZERO_LIMIT_MARGIN` times their largest deviation, at least `floor`.
+/// reading may lie: [`ZERO_LIMIT_MARGIN`] times their largest deviation, at least `floor`.
 fn healthy_range(readings: &[f64], floor: f64) -> (f64, f64) {
     let reference = crate::stats::median(readings);
     let widest = readings

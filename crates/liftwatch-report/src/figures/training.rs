@@ -198,7 +198,7 @@ fn training_text(c: &Ctx) -> Vec<String> {
         }
     };
     let stop = fit.stage2_stop.map_or_else(String::new, |st| {
-        format!(" S{}.", st.describe(fit.iterations).trim_start_matches('s'))
+        format!(" {}.", st.describe(fit.iterations))
     });
     vec![format!(
         "The fit has two stages: Gauss-Newton on the physical parameters θ alone (stage 1), then {stage2} \

@@ -15,6 +15,7 @@ use serde::{Deserialize, Serialize};
 use crate::linalg::SquareMatrix;
 use crate::model::loss::{Obs, Prior};
 use crate::model::net::ResidualNet;
+use crate::model::optim::lbfgs::PLATEAU;
 use crate::model::optim::Stop;
 use crate::model::physics::{PhysParams, N_PHYS};
 use crate::model::train::TrainPoint;
@@ -54,7 +55,7 @@ pub struct ParamReport {
 pub struct Stage2Stop {
     /// Why the solver stopped.
     pub reason: Stop,
-    /// Relative fall of the loss over the last [`PLATEAU`](crate::model::optim::lbfgs::PLATEAU) iterations (or as many as
+    /// Relative fall of the loss over the last [`PLATEAU`] iterations (or as many as
     /// ran), (L_k−50 − L_k)/L_k: below [`PLATEAU_GAIN`](crate::model::optim::lbfgs::PLATEAU_GAIN) the network has converged as
     /// far as the loss can tell; above it, the budget stopped a loss still falling by this
     /// share every 50 iterations.
@@ -67,18 +68,19 @@ impl Stage2Stop {
     /// still fell at the end.
     pub fn describe(&self, iterations: usize) -> String {
         let gain = 100.0 * self.recent_gain;
+        let window = PLATEAU;
         match self.reason {
             Stop::Budget => format!(
-                "stage 2 ran its budget of {iterations} iterations, the loss still falling {gain:.2} % over the last 50 (not converged; --epochs sets the budget)"
+                "Stage 2 ran its budget of {iterations} iterations, the loss still falling {gain:.2} % over the last {window} (not converged; --epochs sets the budget)"
             ),
             Stop::Plateau => format!(
-                "stage 2 converged after {iterations} iterations: the loss fell {gain:.4} % over the last 50"
+                "Stage 2 converged after {iterations} iterations: the loss fell {gain:.4} % over the last {window}"
             ),
             Stop::Gradient => {
-                format!("stage 2 converged after {iterations} iterations: the gradient vanished")
+                format!("Stage 2 converged after {iterations} iterations: the gradient vanished")
             }
             Stop::LineSearch => format!(
-                "stage 2 stopped after {iterations} iterations: no step lowered the loss any more"
+                "Stage 2 stopped after {iterations} iterations: no step lowered the loss any more"
             ),
         }
     }

@@ -25,9 +25,14 @@ use async_nats::HeaderMap;
 use bytes::Bytes;
 use futures_util::StreamExt;
 
-/// How long [`Bus::states`] waits for the checkpoints of the whole fleet: a bucket of 10,000
-/// streams through one consumer in seconds; past this the cluster is not answering.
+/// How long [`Bus::states`] and [`Bus::outputs`] wait for the checkpoints or the outputs of
+/// the whole fleet: 10,000 checkpoints come back in seconds; past this the cluster is not
+/// answering.
 pub const STATES_PATIENCE: Duration = Duration::from_secs(30);
+
+/// Requests [`Bus::states`] and [`Bus::outputs`] keep in flight: enough to hide a loopback round trip behind
+/// the others, few enough not to queue behind a worker's checkpoints.
+const READS_IN_FLIGHT: usize = 64;
 
 /// The telemetry stream.
 pub const TELEMETRY_STREAM: &str = "LIFTWATCH_TELEMETRY";
@@ -313,22 +318,35 @@ impl Bus {
             .map_err(|e| line("heartbeat", e))
     }
 
-    /// The live workers and the partitions under a lease.
+    /// The live workers and which of the `partitions` are under a lease.
     ///
     /// # Errors
     /// One line from the server.
-    pub async fn members(&self) -> Result<(Vec<String>, Vec<u32>), String> {
-        let mut keys = self.leases.keys().await.map_err(|e| line("leases", e))?;
-        let (mut workers, mut taken) = (Vec::new(), Vec::new());
-        while let Some(k) = keys.next().await {
-            let k = k.map_err(|e| line("leases", e))?;
-            if let Some(w) = k.strip_prefix("worker.") {
-                workers.push(w.to_string());
-            } else if let Some(p) = k.strip_prefix("part.").and_then(|p| p.parse().ok()) {
+    ///
+    /// Neither read makes a consumer. The KV client lists keys through an ephemeral consumer,
+    /// and the cluster placed those on a server just killed: until it counted that server out,
+    /// every listing timed out (for tens of seconds to minutes in the fleet test), and with it
+    /// every worker's share, so a partition dropped in the failover stayed unowned. The
+    /// workers come from the stream's subject list, a request the bucket's leader answers;
+    /// the leases from one direct get per partition, which any live replica answers.
+    pub async fn members(&self, partitions: u32) -> Result<(Vec<String>, Vec<u32>), String> {
+        let mut workers: Vec<String> = subjects(&self.leases, "worker.")
+            .await?
+            .into_iter()
+            .map(|k| k["worker.".len()..].to_string())
+            .collect();
+        workers.sort();
+        let entries = futures_util::future::join_all(
+            (0..partitions).map(|p| self.leases.entry(format!("part.{p}"))),
+        )
+        .await;
+        let mut taken = Vec::new();
+        for (p, e) in (0..partitions).zip(entries) {
+            let e = e.map_err(|e| line("leases", e))?;
+            if e.is_some_and(|e| e.operation == kv::Operation::Put) {
                 taken.push(p);
             }
         }
-        workers.sort();
         Ok((workers, taken))
     }
 
@@ -450,55 +468,59 @@ impl Bus {
     ///
     /// # Errors
     /// One line from the server.
+    ///
+    /// Read by sequence, [`READS_IN_FLIGHT`] requests at a time, each answered by the
+    /// stream's leader, rather than through a consumer that may be placed on a dead server
+    /// ([`Bus::members`]). Gives up after [`STATES_PATIENCE`].
     pub async fn outputs(&self) -> Result<Vec<Published>, String> {
-        let stream = self
-            .js
-            .get_stream(OUTPUT_STREAM)
-            .await
-            .map_err(|e| line("outputs", e))?;
-        let consumer = stream
-            .create_consumer(pull::Config {
-                deliver_policy: DeliverPolicy::All,
-                ack_policy: AckPolicy::None,
-                inactive_threshold: Duration::from_secs(60),
-                ..Default::default()
-            })
-            .await
-            .map_err(|e| line("outputs", e))?;
-        let mut out = Vec::new();
-        loop {
-            let recs = consumer
-                .fetch()
-                .max_messages(1000)
-                .expires(Duration::from_millis(500))
-                .messages()
+        let read = async {
+            let stream = self
+                .js
+                .get_stream(OUTPUT_STREAM)
                 .await
                 .map_err(|e| line("outputs", e))?;
-            let before = out.len();
-            let mut recs = recs;
-            while let Some(m) = recs.next().await {
-                let m = m.map_err(|e| line("outputs", e))?;
-                let stored = m
-                    .info()
-                    .map(|i| i.published.unix_timestamp_nanos() as f64 * 1e-9)
-                    .unwrap_or(f64::NAN);
-                let msg_id = m
-                    .headers
-                    .as_ref()
-                    .and_then(|h| h.get(async_nats::header::NATS_MESSAGE_ID))
-                    .map(|v| v.to_string())
-                    .unwrap_or_default();
+            // Fresh from the server: `Stream::cached_info` is as old as the handle.
+            let state = stream
+                .get_info()
+                .await
+                .map_err(|e| line("outputs", e))?
+                .state;
+            if state.messages == 0 {
+                return Ok(Vec::new());
+            }
+            let stream = &stream;
+            let got: Vec<_> =
+                futures_util::stream::iter(state.first_sequence..=state.last_sequence)
+                    .map(|seq| async move { stream.get_raw_message(seq).await })
+                    .buffered(READS_IN_FLIGHT)
+                    .collect()
+                    .await;
+            let mut out = Vec::with_capacity(got.len());
+            for m in got {
+                let m = match m {
+                    Ok(m) => m,
+                    // Aged out since the stream's state was read.
+                    Err(e) if e.kind() == stream::LastRawMessageErrorKind::NoMessageFound => {
+                        continue
+                    }
+                    Err(e) => return Err(line("outputs", e)),
+                };
                 out.push(Published {
                     subject: m.subject.to_string(),
-                    msg_id,
+                    msg_id: m
+                        .headers
+                        .get(async_nats::header::NATS_MESSAGE_ID)
+                        .map(|v| v.to_string())
+                        .unwrap_or_default(),
                     line: String::from_utf8_lossy(&m.payload).into_owned(),
-                    stored,
+                    stored: m.time.unix_timestamp_nanos() as f64 * 1e-9,
                 });
             }
-            if out.len() == before {
-                return Ok(out);
-            }
-        }
+            Ok(out)
+        };
+        tokio::time::timeout(STATES_PATIENCE, read)
+            .await
+            .unwrap_or_else(|_| Err("outputs: timed out reading the stream".to_string()))
     }
 
     // ── telemetry in (a gateway) ────────────────────────────────────────────────────────
@@ -608,37 +630,27 @@ impl Bus {
     /// # Errors
     /// One line from the server.
     ///
-    /// One ordered consumer delivers the last value of every key, up to the last one pending
-    /// when it began (`delta` 0), instead of a request per key: 10,000 checkpoints read by
-    /// single `get`s did not come back within a minute. The read gives up after
+    /// The keys come from the stream's subject list and the values from direct gets,
+    /// [`READS_IN_FLIGHT`] at a time, for the reason given at [`Bus::members`]: a listing
+    /// through a consumer can be placed on a dead server. (One `get` at a time, 10,000
+    /// checkpoints did not come back within a minute.) The read gives up after
     /// [`STATES_PATIENCE`].
     pub async fn states(&self) -> Result<HashMap<String, Bytes>, String> {
         let read = async {
-            // Fresh from the server: `Store::status` answers from the bucket's cached info.
-            let info = self
-                .state
-                .stream
-                .get_info()
-                .await
-                .map_err(|e| line("state", e))?;
+            let keys = subjects(&self.state, "").await?;
+            let got: Vec<_> = futures_util::stream::iter(keys)
+                .map(|k| async move {
+                    let e = self.state.entry(k.as_str()).await;
+                    (k, e)
+                })
+                .buffer_unordered(READS_IN_FLIGHT)
+                .collect()
+                .await;
             let mut out = HashMap::new();
-            if info.state.messages == 0 {
-                return Ok(out);
-            }
-            let mut watch = self
-                .state
-                .watch_with_history(">")
-                .await
-                .map_err(|e| line("state", e))?;
-            while let Some(e) = watch.next().await {
+            for (k, e) in got {
                 let e = e.map_err(|e| line("state", e))?;
-                if e.operation == kv::Operation::Put {
-                    out.insert(e.key, e.value);
-                } else {
-                    out.remove(&e.key);
-                }
-                if e.delta == 0 {
-                    break;
+                if let Some(e) = e.filter(|e| e.operation == kv::Operation::Put) {
+                    out.insert(k, e.value);
                 }
             }
             Ok(out)
@@ -652,6 +664,25 @@ impl Bus {
     pub async fn flush(&self) {
         let _ = self.client.flush().await;
     }
+}
+
+/// The keys of bucket `kv` that start with `prefix`, from its stream's subject list (a
+/// deleted key whose marker is still kept is listed too).
+async fn subjects(kv: &kv::Store, prefix: &str) -> Result<Vec<String>, String> {
+    let what = kv.name.as_str();
+    let mut list = kv
+        .stream
+        .info_with_subjects(format!("{}{prefix}>", kv.prefix))
+        .await
+        .map_err(|e| line(what, e))?;
+    let mut keys = Vec::new();
+    while let Some(s) = list.next().await {
+        let (subject, _) = s.map_err(|e| line(what, e))?;
+        if let Some(k) = subject.strip_prefix(kv.prefix.as_str()) {
+            keys.push(k.to_string());
+        }
+    }
+    Ok(keys)
 }
 
 /// The stream of `cfg`, made if missing (several workers may start together).

@@ -391,7 +391,7 @@ impl Fleet {
     /// The fair share: give the surplus up, take free partitions.
     async fn ownership(&mut self) -> Result<(), String> {
         self.bus.heartbeat(&self.name).await?;
-        let (workers, taken) = self.bus.members().await?;
+        let (workers, taken) = self.bus.members(self.cfg.nats_partitions).await?;
         let parts = self.cfg.nats_partitions;
         let share = parts.div_ceil(workers.len().max(1) as u32) as usize;
         while self.parts.len() > share {

@@ -1,8 +1,8 @@
 //! `liftwatch serve --nats`, the fleet mode, against real nats-server processes on loopback:
 //! a 3-node JetStream cluster and 3 workers (the real binary) take a bounded load of many
-//! simulated elevators; one worker and one server are `kill -9`ed mid-stream; every
-//! elevator's risk rows equal a batch `liftwatch monitor --rows trip` over the same data and
-//! every reading was applied exactly once. A second case: a gateway publishing over MQTT into
+//! simulated elevators; one worker and one server are `kill -9`ed mid-stream, and a worker
+//! joins while that server is down; every elevator's risk rows equal a batch `liftwatch monitor
+//! --rows trip` over the same data and every reading was applied exactly once. A second case: a gateway publishing over MQTT into
 //! the server's MQTT listener reaches a worker. Skipped, saying so, where nats-server is not
 //! installed (`.ci/run` installs Debian's). Every process is killed when its case ends.
 
@@ -167,7 +167,7 @@ fn health(s: &Server) -> Value {
 /// The scale-out run: `LIFTWATCH_NATS_ELEVATORS` (100 in CI) elevators, each sending 10 s of
 /// log per message, `LIFTWATCH_NATS_SPEEDUP` (20) times real time, for `LIFTWATCH_NATS_SECONDS`
 /// (60) of wall time, through 3 servers and 3 workers; worker 0 is killed at 40 % of the run and
-/// server 2 at 60 %.
+/// server 2 at 60 %, when a fourth worker starts.
 fn fleet_run(default_n: f64, default_s: f64, default_speedup: f64) {
     if !Path::new(NATS_SERVER).exists() {
         eprintln!("SKIPPED: {NATS_SERVER} is not installed (apt-get install nats-server)");
@@ -290,6 +290,9 @@ fn fleet_run(default_n: f64, default_s: f64, default_speedup: f64) {
     }
     let killed_server = servers.remove(2);
     drop(killed_server); // SIGKILL
+                         // A worker that starts while the server is down starts all the same and takes a share.
+    let joined = Server::spawn(&args, Some(TOKEN));
+    let t_join = Instant::now();
     let mut acks = Vec::new();
     let mut worst_late = 0.0f64;
     for h in senders {
@@ -320,12 +323,23 @@ fn fleet_run(default_n: f64, default_s: f64, default_speedup: f64) {
                 .map(|(id, s)| format!("{id} {:?}<{s}", p.get(id)))
                 .take(10)
                 .collect();
-            let h: Vec<Value> = survivors.iter().map(health).collect();
+            let h: Vec<Value> = survivors.iter().chain([&joined]).map(health).collect();
             panic!("the workers did not catch up: {behind:?}; {h:?}");
         }
         std::thread::sleep(Duration::from_millis(250));
     };
     let caught_up = t1.elapsed().as_secs_f64();
+    let joined_share = loop {
+        let held = health(&joined)["partitions"].as_array().unwrap().len();
+        if held > 0 {
+            break (held, t_join.elapsed().as_secs_f64());
+        }
+        assert!(
+            t_join.elapsed() < PATIENCE * 2,
+            "the worker started during the outage took no partition"
+        );
+        std::thread::sleep(Duration::from_millis(100));
+    };
     let rss: f64 =
         survivors.iter().map(|w| rss_kb(w.child.id())).sum::<f64>() - rss0[1..].iter().sum::<f64>();
     let outputs = retried(&urls, |g| g.outputs());
@@ -363,11 +377,14 @@ fn fleet_run(default_n: f64, default_s: f64, default_speedup: f64) {
     };
     eprintln!(
         "fleet: {n} elevators × {per_elevator} messages ({:.0}/s) in {sent_s:.0} s, senders at most {worst_late:.2} s behind, \
-         caught up {caught_up:.1} s later; worker killed: its partitions taken over in {takeover:.2} s; server killed at 60 %; \
+         caught up {caught_up:.1} s later; worker killed: its partitions taken over in {takeover:.2} s; server killed at 60 %, \
+         a worker started then held {} partitions {:.1} s later; \
          {} risk rows, each equal to the batch run's ({} of {n} elevators with every batch row); \
          ingest-to-row latency median {:.3} s, p99 {:.3} s; worker memory {:.1} KB per elevator; \
          readings applied exactly once ({rows_each} each)",
         acks.len() as f64 / sent_s,
+        joined_share.0,
+        joined_share.1,
         got.values().map(Vec::len).sum::<usize>(),
         complete,
         q(0.5),

@@ -604,7 +604,7 @@ impl Bus {
 
     /// Each change of an active model from now on: (id, digest or `None` when deactivated,
     /// version). (A watch with history ends at once on an empty bucket in this client, so the
-    /// current ones are read with [`Bus::active_model`] instead.)
+    /// current ones are read with [`Bus::active_models`] instead.)
     ///
     /// # Errors
     /// One line from the server.
@@ -616,13 +616,32 @@ impl Bus {
             .watch("active.*")
             .await
             .map_err(|e| line("models", e))?;
-        Ok(w.filter_map(|e| async move {
-            let e = e.ok()?;
-            let id = e.key.strip_prefix("active.")?.to_string();
-            let d = (e.operation == kv::Operation::Put)
-                .then(|| String::from_utf8_lossy(&e.value).into_owned());
-            Some((id, d, e.revision))
-        }))
+        Ok(w.filter_map(|e| async move { model_change(&e.ok()?) }))
+    }
+
+    /// Every elevator's active model now, as [`Bus::watch_models`] gives a change; read by key
+    /// like [`Bus::states`].
+    ///
+    /// # Errors
+    /// One line from the server.
+    pub async fn active_models(&self) -> Result<Vec<(String, Option<String>, u64)>, String> {
+        let keys = subjects(&self.models, "active.").await?;
+        let got: Vec<_> = futures_util::stream::iter(keys)
+            .map(|k| async move { self.models.entry(k.as_str()).await })
+            .buffer_unordered(READS_IN_FLIGHT)
+            .collect()
+            .await;
+        let mut out = Vec::with_capacity(got.len());
+        for e in got {
+            if let Some(c) = e
+                .map_err(|e| line("models", e))?
+                .as_ref()
+                .and_then(model_change)
+            {
+                out.push(c);
+            }
+        }
+        Ok(out)
     }
 
     /// Every checkpoint (id → JSON), for tests and tools.
@@ -664,6 +683,14 @@ impl Bus {
     pub async fn flush(&self) {
         let _ = self.client.flush().await;
     }
+}
+
+/// An entry of `active.{id}` as a change: (id, digest or `None` when deleted, version).
+fn model_change(e: &kv::Entry) -> Option<(String, Option<String>, u64)> {
+    let id = e.key.strip_prefix("active.")?.to_string();
+    let d =
+        (e.operation == kv::Operation::Put).then(|| String::from_utf8_lossy(&e.value).into_owned());
+    Some((id, d, e.revision))
 }
 
 /// The keys of bucket `kv` that start with `prefix`, from its stream's subject list (a

@@ -58,6 +58,10 @@ const FETCH_MAX: usize = 256;
 /// Longest wait of a fetch on a partition with nothing new.
 const FETCH_WAIT: Duration = Duration::from_millis(50);
 
+/// Pause before the models' watch is made again after it could not be made or ended: short
+/// against the seconds a takeover takes, long enough not to load a cluster that is electing.
+const WATCH_RETRY: Duration = Duration::from_secs(2);
+
 /// One elevator's checkpoint in the state bucket: the same states the embedded worker stores,
 /// and the stream sequence they cover.
 #[derive(Serialize, Deserialize)]
@@ -287,22 +291,7 @@ async fn upload(
 
 impl Fleet {
     async fn run(&mut self) -> Result<(), String> {
-        // The watch first, then the lookups of loaded elevators: no change falls between.
-        let mut watch = Box::pin(self.bus.watch_models().await?);
-        let active = self.active.clone();
-        tokio::spawn(async move {
-            while let Some((id, d, rev)) = watch.next().await {
-                let mut a = active
-                    .lock()
-                    .unwrap_or_else(std::sync::PoisonError::into_inner);
-                match d {
-                    Some(d) => note_active(&mut a, &id, d, rev),
-                    None => {
-                        a.remove(&id);
-                    }
-                }
-            }
-        });
+        tokio::spawn(follow_models(self.bus.clone(), self.active.clone()));
         let mut stop = Box::pin(crate::shutdown_signal());
         let tick = Duration::from_secs_f64(self.cfg.nats_lease_s / 3.0);
         tokio::spawn(renew(
@@ -728,6 +717,48 @@ impl Fleet {
 fn note_active(a: &mut HashMap<String, (String, u64)>, id: &str, d: String, rev: u64) {
     if a.get(id).map_or(true, |x| x.1 < rev) {
         a.insert(id.to_string(), (d, rev));
+    }
+}
+
+/// The models task: a watch on the active models is made, then every active model is read
+/// once (a change between the two comes through the watch too, and the later revision wins),
+/// then the watch's changes are taken as they come; all of it again, after [`WATCH_RETRY`],
+/// when the watch cannot be made or ends. The worker does not wait for it: while a server is
+/// down the cluster may place the watch's consumer on it (`Bus::members`), and a worker must
+/// start all the same; each elevator's model is looked up when it is loaded anyway.
+async fn follow_models(bus: Arc<Bus>, active: Arc<Mutex<HashMap<String, (String, u64)>>>) {
+    let apply = |(id, d, rev): (String, Option<String>, u64)| {
+        let mut a = active
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        match d {
+            Some(d) => note_active(&mut a, &id, d, rev),
+            None => {
+                a.remove(&id);
+            }
+        }
+    };
+    loop {
+        let watched = async {
+            let mut watch = Box::pin(bus.watch_models().await?);
+            for change in bus.active_models().await? {
+                apply(change);
+            }
+            while let Some(change) = watch.next().await {
+                apply(change);
+            }
+            Err::<(), _>("the watch ended".to_string())
+        };
+        if let Err(e) = watched.await {
+            log(
+                "warn",
+                &format!(
+                    "models: {e}; watched again in {} s",
+                    WATCH_RETRY.as_secs_f64()
+                ),
+            );
+        }
+        tokio::time::sleep(WATCH_RETRY).await;
     }
 }
 

@@ -456,12 +456,41 @@ fn scores(r: &DoorReference, c: &DoorCycle) -> [f64; 2] {
     [0, 1].map(|k| z[k] - DOOR_WANDER_K * r.wander[k])
 }
 
+/// The hour of the week of time `t` (s), 0..[`HOURS_PER_WEEK`]: the bin of
+/// [`OperationReference::trips_per_hour`]. Below [`EXACT_INTEGERS`] hours in integers
+/// ([`floor_to_i64`]: every sample asks, and `floor` and a float remainder are calls on the
+/// baseline x86-64 target), beyond them as floats; both give the bin the floats give.
 fn hour_bin(t: f64) -> usize {
-    ((t / 3600.0).floor().rem_euclid(HOURS_PER_WEEK as f64)) as usize % HOURS_PER_WEEK
+    let hours = t / 3600.0;
+    if hours.abs() < EXACT_INTEGERS {
+        // Same value: the float floor of such an hour is an integer the float remainder
+        // divides exactly.
+        floor_to_i64(hours).rem_euclid(HOURS_PER_WEEK as i64) as usize
+    } else {
+        (hours.floor().rem_euclid(HOURS_PER_WEEK as f64)) as usize % HOURS_PER_WEEK
+    }
 }
 
+/// The day of time `t` (s): ⌊t / 86,400⌋.
 fn day_of(t: f64) -> i64 {
-    (t / 86_400.0).floor() as i64
+    floor_to_i64(t / 86_400.0)
+}
+
+/// 2⁵³: below it in magnitude every integer is a float, and the float remainder of one by
+/// a small integer is exact.
+const EXACT_INTEGERS: f64 = 9_007_199_254_740_992.0;
+
+/// `q.floor() as i64` for every `q` (NaN 0, saturating beyond the range) without the call
+/// `floor` is on the baseline x86-64 target: the truncation toward zero, one less when it
+/// lies above `q` (a negative `q` with a fraction). Where the truncation is beyond 2⁵³ in
+/// magnitude `q` is an integer already and nothing is taken off.
+fn floor_to_i64(q: f64) -> i64 {
+    let i = q as i64;
+    if i as f64 > q {
+        i.saturating_sub(1)
+    } else {
+        i
+    }
 }
 
 /// The streaming tracker: door cycles, outages, daily usage and the door check. Saved and
@@ -1060,6 +1089,49 @@ mod tests {
             door,
             floor,
             current: f64::NAN,
+        }
+    }
+
+    #[test]
+    fn integer_bins_equal_the_float_ones() {
+        let float_hour = |t: f64| {
+            ((t / 3600.0).floor().rem_euclid(HOURS_PER_WEEK as f64)) as usize % HOURS_PER_WEEK
+        };
+        let float_day = |t: f64| (t / 86_400.0).floor() as i64;
+        let mut rng = crate::rng::Rng::new(3);
+        let edges = [
+            0.0,
+            -0.0,
+            1.0,
+            -1.0,
+            3600.0,
+            -3600.0,
+            86_400.0,
+            -86_400.5,
+            1e-300,
+            -1e-300,
+            f64::MAX,
+            f64::MIN,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NAN,
+            EXACT_INTEGERS * 3600.0,
+            -EXACT_INTEGERS * 3600.0,
+            9.3e18 * 86_400.0,
+            -9.3e18 * 86_400.0,
+        ];
+        let random = (0..100_000).map(|i| {
+            let t = rng.uniform(-2e9, 2e9);
+            if i % 2 == 0 {
+                t.round()
+            } else {
+                t
+            }
+        });
+        for t in edges.into_iter().chain(random) {
+            assert_eq!(hour_bin(t), float_hour(t), "{t}");
+            assert_eq!(day_of(t), float_day(t), "{t}");
+            assert_eq!(floor_to_i64(t), t.floor() as i64, "{t}");
         }
     }
 

@@ -596,8 +596,9 @@ impl Monitor {
             st.trip = TripAccumulator::default();
             st.open_trip = x.trip;
         }
-        let heating = st.winding.advance_row(self.thermal, x, pred.as_ref());
+        st.winding.step_row(self.thermal, x, pred.as_ref());
         if let (Some(p), true) = (pred, x.s != 0 && x.trip.is_some()) {
+            let heating = st.winding.basis(x.time);
             st.trip.push(model, self.friction, x, (&p, &res), heating);
         }
         if let Some(i) = x.trip {

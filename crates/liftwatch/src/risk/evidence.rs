@@ -360,8 +360,16 @@ impl Heating {
     /// the basis at `time` (a `Moving` force that is not finite counts as `MovingUnknown`).
     /// Time that runs backwards or is not finite holds H.
     pub fn advance(&mut self, tau_s: f64, time: f64, input: HeatInput) -> [f64; N_HEAT] {
+        self.step(tau_s, time, input);
+        self.basis(time)
+    }
+
+    /// [`Self::advance`] without the basis: the lag's update alone, for a caller that needs
+    /// the basis only on some samples (the monitor: moving ones) and spares the others its
+    /// cosine and sine.
+    pub fn step(&mut self, tau_s: f64, time: f64, input: HeatInput) {
         if !time.is_finite() {
-            return [self.h, 0.0, 0.0];
+            return;
         }
         let dt = self.last.map_or(f64::INFINITY, |last| time - last);
         if dt > 0.0 {
@@ -393,6 +401,14 @@ impl Heating {
             }
             self.last = Some(time);
         }
+    }
+
+    /// The basis at `time` after [`Self::step`] to it: H and the ambient's daily phase
+    /// (none at a time that is not finite).
+    pub fn basis(&self, time: f64) -> [f64; N_HEAT] {
+        if !time.is_finite() {
+            return [self.h, 0.0, 0.0];
+        }
         let phase = std::f64::consts::TAU * (time / AMBIENT_PERIOD_S).fract();
         [self.h, phase.cos(), phase.sin()]
     }
@@ -406,7 +422,13 @@ impl Heating {
         x: &FeatureRow,
         p: Option<&Prediction>,
     ) -> [f64; N_HEAT] {
-        self.advance(tau_s, x.time, HeatInput::of_row(f_ref, x, p))
+        self.step_row((f_ref, tau_s), x, p);
+        self.basis(x.time)
+    }
+
+    /// [`Self::advance_row`] without the basis ([`Self::step`]).
+    pub fn step_row(&mut self, (f_ref, tau_s): (f64, f64), x: &FeatureRow, p: Option<&Prediction>) {
+        self.step(tau_s, x.time, HeatInput::of_row(f_ref, x, p));
     }
 }
 

@@ -469,7 +469,7 @@ impl Bus {
     /// # Errors
     /// One line from the server.
     ///
-    /// Read by sequence, [`READS_IN_FLIGHT`] requests at a time, each answered by the
+    /// Read by sequence, `READS_IN_FLIGHT` (64) requests at a time, each answered by the
     /// stream's leader, rather than through a consumer that may be placed on a dead server
     /// ([`Bus::members`]). Gives up after [`STATES_PATIENCE`].
     pub async fn outputs(&self) -> Result<Vec<Published>, String> {
@@ -650,7 +650,7 @@ impl Bus {
     /// One line from the server.
     ///
     /// The keys come from the stream's subject list and the values from direct gets,
-    /// [`READS_IN_FLIGHT`] at a time, for the reason given at [`Bus::members`]: a listing
+    /// `READS_IN_FLIGHT` (64) at a time, for the reason given at [`Bus::members`]: a listing
     /// through a consumer can be placed on a dead server. (One `get` at a time, 10,000
     /// checkpoints did not come back within a minute.) The read gives up after
     /// [`STATES_PATIENCE`].

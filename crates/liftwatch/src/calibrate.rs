@@ -1219,7 +1219,7 @@ fn bootstrap_maxima(
     let (mut max_r, mut max_m) = (0.0f64, [0.0f64; N_MODES]);
     let mut max_g = [[0.0f64; N_SIZES]; N_MODES];
     bootstrap(trips, block_s, total, rng, hours, |t| {
-        let a = tracker.push(cfg, t);
+        let a = tracker.push_levels(cfg, t);
         max_r = max_r.max(a.risk);
         let g = tracker.cusum_g();
         for m in 0..N_MODES {
@@ -1245,9 +1245,9 @@ fn bootstrap_episodes(
     let mut alarm = AlarmState::default();
     let mut episodes = 0;
     bootstrap(trips, block_s, total, rng, hours, |t| {
-        let a = tracker.push(cfg, t);
+        let a = tracker.push_levels(cfg, t);
         let before = alarm.machine_level();
-        alarm.update_machine(a.risk, a.decision.ratio, cfg);
+        alarm.update_machine(a.risk, a.ratio, cfg);
         if before == Level::Normal && alarm.machine_level() != Level::Normal {
             episodes += 1;
         }
@@ -1592,6 +1592,34 @@ mod tests {
             .zip(&trips)
             .filter(|(_, t)| t.start < 86_400.0)
             .all(|(a, _)| a.risk < cfg.advisory));
+    }
+
+    #[test]
+    fn the_bootstraps_levels_are_the_full_steps_to_the_bit() {
+        // The bootstraps take R, G and the ratio from `push_levels`, which skips the
+        // decision's windows, isolation and drifts: on healthy days and through a step that
+        // crosses the CUSUMs, each of them must be the full step's, bit for bit.
+        let m = test_model();
+        let cfg = calibrated(&m).risk;
+        let k = 1.0 * m.scales.sigma_u_v;
+        let trips = synthetic_trips(&m, 6, 3.0, 0.0, &|t, _| if t > 86_400.0 { k } else { 0.0 });
+        let (mut full, mut levels) = (RiskTracker::new(&cfg), RiskTracker::new(&cfg));
+        let mut crossed = false;
+        for t in &trips {
+            let t = t.without_heating(&cfg.winding.beta);
+            let a = full.push(&cfg, &t);
+            let l = levels.push_levels(&cfg, &t);
+            crossed |= a.decision.ratio >= 1.0;
+            assert_eq!(a.risk.to_bits(), l.risk.to_bits());
+            assert_eq!(
+                a.risk_modes.map(f64::to_bits),
+                l.risk_modes.map(f64::to_bits)
+            );
+            assert_eq!(a.decision.ratio.to_bits(), l.ratio.to_bits());
+            let g = |t: &RiskTracker| t.cusum_g().map(|row| row.map(f64::to_bits));
+            assert_eq!(g(&full), g(&levels));
+        }
+        assert!(crossed, "the step never crossed a CUSUM");
     }
 
     #[test]

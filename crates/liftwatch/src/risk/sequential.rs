@@ -372,6 +372,33 @@ impl SequentialConfig {
         self.score(t).0
     }
 
+    /// Each CUSUM's increment ν·u − ν²/2 for one trip's score and information, per mode and
+    /// size: in standardised units u = score/(s·√info) (clipped), ν = δ·√info/s; the
+    /// reference size counts only the score beyond [`REFERENCE_Z`] of θ0's error.
+    fn increments(
+        &self,
+        score: &[f64; N_MODES],
+        info: &[f64; N_MODES],
+    ) -> [[f64; N_SIZES]; N_MODES] {
+        std::array::from_fn(|m| {
+            let root = (self.s2[m] * info[m]).sqrt();
+            let standardised = |score: f64| {
+                if root > 0.0 {
+                    (score / root).clamp(-CLIP, CLIP)
+                } else {
+                    0.0
+                }
+            };
+            let u = standardised(score[m]);
+            let u_beyond = standardised(score[m] - REFERENCE_Z * self.reference_se[m] * info[m]);
+            std::array::from_fn(|j| {
+                let u = if j == REFERENCE_SIZE { u_beyond } else { u };
+                let nu = self.delta(m, j) * (info[m] / self.s2[m]).sqrt();
+                gaussian_llr(nu, u)
+            })
+        })
+    }
+
     /// Score and information of one trip per mode.
     fn score(&self, t: &TripEvidence) -> ([f64; N_MODES], [f64; N_MODES]) {
         let xtx = unpack(&t.xtx);
@@ -538,24 +565,12 @@ impl Sequential {
     pub fn push(&mut self, cfg: &SequentialConfig, t: &TripEvidence, drift_from: f64) -> Decision {
         let (score, info) = cfg.score(t);
         let load_score = cfg.load.map_or(0.0, |l| l.score(&cfg.theta0, t));
+        let llr = cfg.increments(&score, &info);
         let mut lead = (0usize, 0usize, 0.0f64);
         for m in 0..N_MODES {
-            // In standardised units: u = score/(s·√info), ν = δ·√info/s per this trip.
-            let root = (cfg.s2[m] * info[m]).sqrt();
-            let standardised = |score: f64| {
-                if root > 0.0 {
-                    (score / root).clamp(-CLIP, CLIP)
-                } else {
-                    0.0
-                }
-            };
-            let u = standardised(score[m]);
-            let u_beyond = standardised(score[m] - REFERENCE_Z * cfg.reference_se[m] * info[m]);
             for j in 0..N_SIZES {
-                let u = if j == REFERENCE_SIZE { u_beyond } else { u };
-                let nu = cfg.delta(m, j) * (info[m] / cfg.s2[m]).sqrt();
                 let c = &mut self.bank[m][j];
-                c.g += gaussian_llr(nu, u);
+                c.g += llr[m][j];
                 if c.g <= 0.0 {
                     *c = Cusum::default();
                     continue;
@@ -635,6 +650,29 @@ impl Sequential {
                 f64::NAN
             },
         }
+    }
+
+    /// Advances the CUSUMs' G by one usable trip as [`Sequential::push`] does, and returns
+    /// the ratio its decision would carry (max G/h over the bank), without the windows' sums,
+    /// the isolation or the drifts: all that the calibration's bootstraps read of their ten
+    /// years of trips, where the rest was most of the decision's cost. A bank advanced this
+    /// way holds G alone (its windows stay empty), so it is not one whose decisions are read.
+    pub(crate) fn advance_g(&mut self, cfg: &SequentialConfig, t: &TripEvidence) -> f64 {
+        let (score, info) = cfg.score(t);
+        let llr = cfg.increments(&score, &info);
+        let mut ratio = 0.0f64;
+        for m in 0..N_MODES {
+            for j in 0..N_SIZES {
+                let c = &mut self.bank[m][j];
+                c.g += llr[m][j];
+                if c.g <= 0.0 {
+                    c.g = 0.0;
+                    continue;
+                }
+                ratio = ratio.max(c.g / cfg.h[m][j]);
+            }
+        }
+        ratio
     }
 
     /// The trips of window `c` since its most likely change point for signature `m`, as a

@@ -166,6 +166,17 @@ pub struct TripAssessment {
     pub decision: Decision,
 }
 
+/// What the calibration's bootstraps read of a trip ([`RiskTracker::push_levels`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct RiskLevels {
+    /// Combined risk R.
+    pub(crate) risk: f64,
+    /// Per-mode risks (motor, brake, friction).
+    pub(crate) risk_modes: [f64; N_MODES],
+    /// The sequential decision's max G/h (0 without one).
+    pub(crate) ratio: f64,
+}
+
 /// θ̂ of the regression as the last trip left it: the next trip's prediction error needs
 /// exactly that estimate, and keeping it saves one 3×3 inversion per trip. Not state: a
 /// resumed tracker recomputes it from the same sums, and two trackers are equal whatever
@@ -280,6 +291,42 @@ impl RiskTracker {
         if !t.usable(cfg) {
             return self.last;
         }
+        self.accumulate(cfg, t);
+        if let Some(seq) = &cfg.sequential {
+            let d = self.seq.push(seq, t, cfg.release_ratio);
+            // While a change is held, its drift is the one measured on the changed trips, not
+            // the long memory's lagged fraction of it.
+            if d.ratio >= cfg.release_ratio && d.drift.iter().all(|v| v.is_finite()) {
+                self.last.drift = d.drift;
+                self.last.drift_se = d.drift_se;
+            }
+            self.last.decision = d;
+        }
+        self.last
+    }
+
+    /// Takes one trip as [`RiskTracker::push`] does, but advances the sequential decision's G
+    /// alone ([`Sequential::advance_g`]): what the calibration's bootstraps read, the risks,
+    /// the decision's ratio and G. The decision's mode, windows and drifts are not formed, so
+    /// the latest assessment holds only its ratio of them; a tracker taken this way is not one
+    /// whose decisions are read (its CUSUMs' windows stay empty).
+    pub(crate) fn push_levels(&mut self, cfg: &RiskConfig, t: &TripEvidence) -> RiskLevels {
+        if t.usable(cfg) {
+            self.accumulate(cfg, t);
+            if let Some(seq) = &cfg.sequential {
+                self.last.decision.ratio = self.seq.advance_g(seq, t);
+            }
+        }
+        RiskLevels {
+            risk: self.last.risk,
+            risk_modes: self.last.risk_modes,
+            ratio: self.last.decision.ratio,
+        }
+    }
+
+    /// The re-identification and the accumulated risks of one usable trip, into the latest
+    /// assessment.
+    fn accumulate(&mut self, cfg: &RiskConfig, t: &TripEvidence) {
         let s = self.statistics(cfg, t);
         // The combined risk takes the largest excess of any lens over its own boundary, so it
         // rises for any mode and for trip-level deviations no signature explains.
@@ -293,17 +340,6 @@ impl RiskTracker {
         self.trips += 1;
         self.last.risk = self.combined.r;
         self.last.risk_modes = [self.modes[0].r, self.modes[1].r, self.modes[2].r];
-        if let Some(seq) = &cfg.sequential {
-            let d = self.seq.push(seq, t, cfg.release_ratio);
-            // While a change is held, its drift is the one measured on the changed trips, not
-            // the long memory's lagged fraction of it.
-            if d.ratio >= cfg.release_ratio && d.drift.iter().all(|v| v.is_finite()) {
-                self.last.drift = d.drift;
-                self.last.drift_se = d.drift_se;
-            }
-            self.last.decision = d;
-        }
-        self.last
     }
 
     /// The longest run of trips a CUSUM holds as changed while its G/h is at least the

@@ -625,23 +625,11 @@ impl Bus {
     /// # Errors
     /// One line from the server.
     pub async fn active_models(&self) -> Result<Vec<(String, Option<String>, u64)>, String> {
-        let keys = subjects(&self.models, "active.").await?;
-        let got: Vec<_> = futures_util::stream::iter(keys)
-            .map(|k| async move { self.models.entry(k.as_str()).await })
-            .buffer_unordered(READS_IN_FLIGHT)
-            .collect()
-            .await;
-        let mut out = Vec::with_capacity(got.len());
-        for e in got {
-            if let Some(c) = e
-                .map_err(|e| line("models", e))?
-                .as_ref()
-                .and_then(model_change)
-            {
-                out.push(c);
-            }
-        }
-        Ok(out)
+        Ok(entries(&self.models, "active.")
+            .await?
+            .iter()
+            .filter_map(model_change)
+            .collect())
     }
 
     /// Every checkpoint (id → JSON), for tests and tools.
@@ -656,23 +644,12 @@ impl Bus {
     /// [`STATES_PATIENCE`].
     pub async fn states(&self) -> Result<HashMap<String, Bytes>, String> {
         let read = async {
-            let keys = subjects(&self.state, "").await?;
-            let got: Vec<_> = futures_util::stream::iter(keys)
-                .map(|k| async move {
-                    let e = self.state.entry(k.as_str()).await;
-                    (k, e)
-                })
-                .buffer_unordered(READS_IN_FLIGHT)
-                .collect()
-                .await;
-            let mut out = HashMap::new();
-            for (k, e) in got {
-                let e = e.map_err(|e| line("state", e))?;
-                if let Some(e) = e.filter(|e| e.operation == kv::Operation::Put) {
-                    out.insert(k, e.value);
-                }
-            }
-            Ok(out)
+            Ok(entries(&self.state, "")
+                .await?
+                .into_iter()
+                .filter(|e| e.operation == kv::Operation::Put)
+                .map(|e| (e.key, e.value))
+                .collect())
         };
         tokio::time::timeout(STATES_PATIENCE, read)
             .await
@@ -691,6 +668,22 @@ fn model_change(e: &kv::Entry) -> Option<(String, Option<String>, u64)> {
     let d =
         (e.operation == kv::Operation::Put).then(|| String::from_utf8_lossy(&e.value).into_owned());
     Some((id, d, e.revision))
+}
+
+/// The latest entry of every key of bucket `kv` that starts with `prefix` (a deleted key's
+/// marker too, while the bucket keeps it): the keys from [`subjects`], each read by direct
+/// get, `READS_IN_FLIGHT` at a time.
+async fn entries(kv: &kv::Store, prefix: &str) -> Result<Vec<kv::Entry>, String> {
+    let got: Vec<_> = futures_util::stream::iter(subjects(kv, prefix).await?)
+        .map(|k| async move { kv.entry(k.as_str()).await })
+        .buffer_unordered(READS_IN_FLIGHT)
+        .collect()
+        .await;
+    let mut out = Vec::with_capacity(got.len());
+    for e in got {
+        out.extend(e.map_err(|e| line(&kv.name, e))?);
+    }
+    Ok(out)
 }
 
 /// The keys of bucket `kv` that start with `prefix`, from its stream's subject list (a

@@ -600,7 +600,7 @@ pub fn trip_evidence(model: &HybridModel, rows: &[FeatureRow], tau_s: f64) -> Ve
             let h = heating.advance_row(thermal, x, Some(&p));
             acc.push(model, friction, x, (&p, &r), h);
         } else {
-            heating.advance_row(thermal, x, None);
+            heating.step_row(thermal, x, None);
         }
     }
     out.extend(acc.finish(true));

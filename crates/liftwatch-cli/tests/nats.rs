@@ -1,9 +1,10 @@
 //! `liftwatch serve --nats`, the fleet mode, against real nats-server processes on loopback:
 //! a 3-node JetStream cluster and 3 workers (the real binary) take a bounded load of many
 //! simulated elevators; one worker and one server are `kill -9`ed mid-stream, and a worker
-//! joins while that server is down; every elevator's risk rows equal a batch `liftwatch monitor
-//! --rows trip` over the same data and every reading was applied exactly once. A second case: a gateway publishing over MQTT into
-//! the server's MQTT listener reaches a worker. Skipped, saying so, where nats-server is not
+//! joins while that server is down; every elevator's risk rows equal a batch `liftwatch
+//! monitor --rows trip` over the same data and every reading was applied exactly once. A
+//! second case: a gateway publishing over MQTT into the server's MQTT listener reaches a
+//! worker. Skipped, saying so, where nats-server is not
 //! installed (`.ci/run` installs Debian's). Every process is killed when its case ends.
 
 mod common;
@@ -290,7 +291,8 @@ fn fleet_run(default_n: f64, default_s: f64, default_speedup: f64) {
     }
     let killed_server = servers.remove(2);
     drop(killed_server); // SIGKILL
-                         // A worker that starts while the server is down starts all the same and takes a share.
+
+    // A worker that starts while the server is down starts all the same and takes a share.
     let joined = Server::spawn(&args, Some(TOKEN));
     let t_join = Instant::now();
     let mut acks = Vec::new();

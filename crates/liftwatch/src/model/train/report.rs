@@ -56,9 +56,10 @@ pub struct Stage2Stop {
     /// Why the solver stopped.
     pub reason: Stop,
     /// Relative fall of the loss over the last [`PLATEAU`] iterations (or as many as
-    /// ran), (L_k−50 − L_k)/L_k: below [`PLATEAU_GAIN`](crate::model::optim::lbfgs::PLATEAU_GAIN) the network has converged as
-    /// far as the loss can tell; above it, the budget stopped a loss still falling by this
-    /// share every 50 iterations.
+    /// ran), (L_{k−PLATEAU} − L_k)/L_k: below
+    /// [`PLATEAU_GAIN`](crate::model::optim::lbfgs::PLATEAU_GAIN) the network has converged
+    /// as far as the loss can tell; above it, the budget stopped a loss still falling by this
+    /// share every [`PLATEAU`] iterations.
     #[serde(with = "crate::exact")]
     pub recent_gain: f64,
 }

@@ -47,6 +47,10 @@ pub struct Args {
     /// Worker threads; the results do not depend on it.
     #[arg(long, default_value_t = 2)]
     pub threads: usize,
+    /// Run only the cases whose name contains this text (repeatable, e.g. `--only "E3
+    /// healthy" --only "E1 motor"`); each selected case runs exactly as in the whole suite.
+    #[arg(long, value_name = "TEXT")]
+    pub only: Vec<String>,
     /// Summary: --quiet, --json.
     #[command(flatten)]
     pub ui: UiArgs,
@@ -68,6 +72,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     cfg.healthy_days = args.healthy_days.unwrap_or(cfg.healthy_days);
     cfg.ramp_days = args.ramp_days;
     cfg.severity_scale = args.severity_scale;
+    cfg.only = args.only;
     let ui = Ui::new(args.ui, &[])?;
     let clock = Instant::now();
     ui.say(format_args!(

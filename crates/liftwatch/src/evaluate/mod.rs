@@ -158,7 +158,13 @@ pub fn run_suite(cfg: &SuiteConfig, progress: &(dyn Fn(&str) + Sync)) -> Result<
     let fleet = fleet(cfg.quick);
     let cases = cases(cfg, &fleet)?;
     let done = AtomicUsize::new(0);
-    let trained = par_map(fleet.len(), cfg.threads, &|e| {
+    // Only the elevators of the selected cases are trained; each keeps its place in the
+    // fleet, so its seeds (and the whole run) are those of the full suite.
+    let needed: Vec<usize> = (0..fleet.len())
+        .filter(|e| cases.iter().any(|c| c.elevator == *e))
+        .collect();
+    let trained = par_map(needed.len(), cfg.threads, &|i| {
+        let e = needed[i];
         let t0 = Instant::now();
         let r = train(&fleet[e], e, cfg);
         progress(&format!(
@@ -170,11 +176,12 @@ pub fn run_suite(cfg: &SuiteConfig, progress: &(dyn Fn(&str) + Sync)) -> Result<
         ));
         r.map(|t| (t, t0.elapsed().as_secs_f64()))
     });
-    let mut refs = Vec::new();
+    let mut refs: Vec<Option<Trained>> = vec![None; fleet.len()];
     let mut elevators = Vec::new();
-    for (fe, r) in fleet.iter().zip(trained) {
+    for (&e, r) in needed.iter().zip(trained) {
+        let fe = &fleet[e];
         let (t, secs) =
-            r.map_err(|e| Error::Unidentifiable(format!("training of {}: {e}", fe.name)))?;
+            r.map_err(|err| Error::Unidentifiable(format!("training of {}: {err}", fe.name)))?;
         elevators.push(ElevatorReport {
             fleet: fe.clone(),
             charts: t.charts.clone(),
@@ -186,12 +193,15 @@ pub fn run_suite(cfg: &SuiteConfig, progress: &(dyn Fn(&str) + Sync)) -> Result<
             ),
             seconds: secs,
         });
-        refs.push(t);
+        refs[e] = Some(t);
     }
     let n = cases.len();
     let results = par_map(n, cfg.threads, &|i| {
         let c = &cases[i];
-        let r = run_case(c, &refs[c.elevator], cfg);
+        let trained = refs[c.elevator]
+            .as_ref()
+            .expect("every selected case's elevator was trained");
+        let r = run_case(c, trained, cfg);
         let k = done.fetch_add(1, Ordering::Relaxed) + 1;
         progress(&format!(
             "case {k}/{n} {}: {:.1} s, elapsed {:.0} s",

@@ -83,6 +83,10 @@ pub struct SuiteConfig {
     pub severity_scale: f64,
     /// Worker threads (results do not depend on it).
     pub threads: usize,
+    /// Keep only the cases whose name contains one of these (all when empty). A case's run
+    /// and its elevator's training are the same as in the whole suite: every seed derives
+    /// from the elevator's place in the fleet and the case's name, never from the selection.
+    pub only: Vec<String>,
 }
 
 impl SuiteConfig {
@@ -97,6 +101,7 @@ impl SuiteConfig {
             ramp_days: None,
             severity_scale: 1.0,
             threads: 2,
+            only: Vec::new(),
         }
     }
 }
@@ -226,6 +231,15 @@ pub fn cases(cfg: &SuiteConfig, fleet: &[FleetElevator]) -> Result<Vec<Case>> {
                 sensor_fault: Some(f),
                 days: cfg.fault_days,
                 onset_days: Some(onset / DAY_S),
+            });
+        }
+    }
+    if !cfg.only.is_empty() {
+        out.retain(|c| cfg.only.iter().any(|o| c.name.contains(o.as_str())));
+        if out.is_empty() {
+            return Err(Error::InvalidConfig {
+                field: "evaluate.only",
+                why: format!("no case name contains any of {:?}", cfg.only),
             });
         }
     }
@@ -412,4 +426,32 @@ pub fn run_case(case: &Case, trained: &Trained, cfg: &SuiteConfig) -> Result<Cas
         methods,
         seconds: clock.elapsed().as_secs_f64(),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `--only` keeps the named cases as the whole suite has them (their elevator's place in
+    /// the fleet included, which their seeds derive from), and refuses a selection of none.
+    #[test]
+    fn a_selection_keeps_its_cases_as_the_whole_suite_has_them() {
+        let fleet = fleet(false);
+        let mut cfg = SuiteConfig::new(1, false);
+        let all = cases(&cfg, &fleet).unwrap();
+        cfg.only = vec!["E3 healthy".into(), "E1 motor step".into()];
+        let some = cases(&cfg, &fleet).unwrap();
+        let names: Vec<&str> = some.iter().map(|c| c.name.as_str()).collect();
+        assert_eq!(names, ["E1 motor step S0.5", "E3 healthy"]);
+        assert!(some.iter().all(|c| all.contains(c)));
+        assert_eq!(some[1].elevator, 2);
+        cfg.only = vec!["E9".into()];
+        assert!(matches!(
+            cases(&cfg, &fleet),
+            Err(Error::InvalidConfig {
+                field: "evaluate.only",
+                ..
+            })
+        ));
+    }
 }

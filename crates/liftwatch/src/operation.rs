@@ -37,7 +37,9 @@
 //! its first weekend, every one a car standing idle as an office's cars do. With the
 //! quietest rate (at night often none) the silence of an unseen hour counts for little or
 //! nothing: the car stuck between landings is still found at any hour, the car standing at a
-//! landing is found in the hours the training saw. A week's training sees every hour.
+//! landing is found in the hours the training saw. A week's training sees every hour. An
+//! hour of the day no day of the training saw (the night, after three morning hours) takes
+//! none: the quietest of three busy hours is no bound on a night.
 //!
 //! Why the duration less b·x: a door stands open while people pass through it, about a second
 //! each, so its cycles are long in the peaks and on busy days and short at night. That is
@@ -961,17 +963,21 @@ impl OperationReference {
         }
         // An hour of the week seen for at least a quarter of an hour has its own rate; the
         // others take the quietest rate the training saw (module docs: a training of three
-        // weekdays knows no Saturday).
+        // weekdays knows no Saturday), or none when no day of it saw their hour of the day
+        // (three morning hours say nothing of the night).
         let seen = |b: usize| hours[b] >= 0.25;
         let quietest = (0..HOURS_PER_WEEK)
             .filter(|&b| seen(b))
             .map(|b| starts[b] / hours[b])
             .fold(f64::INFINITY, f64::min);
+        let hour_of_day_seen: Vec<bool> = (0..24)
+            .map(|h| (h..HOURS_PER_WEEK).step_by(24).any(seen))
+            .collect();
         let trips_per_hour: Vec<f64> = (0..HOURS_PER_WEEK)
             .map(|b| {
                 if seen(b) {
                     starts[b] / hours[b]
-                } else if quietest.is_finite() {
+                } else if hour_of_day_seen[b % 24] {
                     quietest
                 } else {
                     0.0
@@ -1454,6 +1460,25 @@ mod tests {
             1,
             "a silent Monday morning"
         );
+        // Three morning hours of training: their quietest rate for the other mornings, none
+        // for the nights they never saw.
+        let (from, to) = (7 * 3600, 10 * 3600);
+        let morning_trips: Vec<Trip> = trips
+            .iter()
+            .copied()
+            .filter(|t| (f64::from(from)..f64::from(to)).contains(&t.start_time))
+            .collect();
+        let morning = OperationReference::learn(
+            &samples[from as usize..to as usize],
+            &morning_trips,
+            1.0,
+            0.05,
+            2,
+            1.0,
+        );
+        let rate = |d: f64, h: f64| morning.trips_per_hour[hour_bin(d * DAY + h * 3600.0)];
+        assert!((rate(4.0, 8.0) - 30.0).abs() < 1e-9, "{}", rate(4.0, 8.0));
+        assert_eq!(rate(4.0, 3.0), 0.0);
     }
 
     #[test]

@@ -265,6 +265,38 @@ pub fn summary(m: &fit::FittedModel, trips: usize, seconds: f64) -> String {
         "taken as none"
     };
     let _ = writeln!(s, "winding: {heating}; {daily}; {taken}");
+    if let Some(op) = &m.operation {
+        let doors = match &op.door {
+            None => "not checked (too few door cycles)".to_string(),
+            Some(d) => format!(
+                "{} cycles, median {:.0} s, {} reopen; {}",
+                d.cycles,
+                d.median_s,
+                if d.reopen_rate <= liftwatch::operation::REOPEN_RATE_FLOOR {
+                    format!(
+                        "at most {:.0} %",
+                        100.0 * liftwatch::operation::REOPEN_RATE_FLOOR
+                    )
+                } else {
+                    format!("{:.1} %", 100.0 * d.reopen_rate)
+                },
+                d.transfer.map_or_else(
+                    || "the whole cycle scored (no load readings to tell the riders from the door)"
+                        .to_string(),
+                    |t| format!(
+                        "{:.2} s per % of rated load passing the door, {:.1} s beyond it (σ̂ {:.1} s against {:.1} s for the whole cycle)",
+                        t.s_per_load, t.median_s, t.sigma_s, d.sigma_s
+                    )
+                )
+            ),
+        };
+        let _ = writeln!(
+            s,
+            "operation: {} landings placed; out of service after {:.1} expected trips of silence; doors: {doors}",
+            op.landings_m.len(),
+            op.outage_expected_trips
+        );
+    }
     let _ = writeln!(
         s,
         "healthy scales: σ_U {:.2} V, σ_F {:.0} N; risk thresholds: advisory {:.3}, alarm {:.3}",

@@ -1210,8 +1210,11 @@ impl DoorTransfer {
                 sxx += x * x;
                 sxy += x * y;
             }
+            // A load that never varied (a cell reading a constant) leaves no slope: the spread
+            // must stand clear of the sums' rounding, about 1e-16 of Σx², by a wide margin
+            // (and an empty set gives NaN, which fails the test too).
             let var = sxx - sx * sx / n;
-            (var > 1e-9 * sxx.max(1e-300)).then(|| (sxy - sx * sy / n) / var)
+            (var > 1e-9 * sxx.max(f64::MIN_POSITIVE)).then(|| (sxy - sx * sy / n) / var)
         };
         let b0 = slope(&mut read.iter().copied())?;
         let e0: Vec<f64> = read.iter().map(|(x, y)| y - b0 * x).collect();

@@ -196,10 +196,19 @@ fn text(c: &Ctx, days: &[DayUsage]) -> Vec<String> {
         num(100.0 * reopenings as f64 / (cycles.max(1)) as f64),
         match c.inp.model.operation.as_ref().and_then(|o| o.door.as_ref()) {
             Some(r) => format!(
-                "Healthy reference: median {} s, {} % reopenings, over {} training cycles.",
+                "Healthy reference: median {} s, {} % reopenings, over {} training cycles.{}",
                 num(r.median_s),
                 num(100.0 * r.reopen_rate),
-                r.cycles
+                r.cycles,
+                r.transfer.map_or_else(String::new, |t| format!(
+                    " The check scores each cycle beyond its passengers: {} s per % of rated \
+                     load passing the door, {} s beyond it (spread {} s, against {} s for the \
+                     whole cycle).",
+                    num(t.s_per_load),
+                    num(t.median_s),
+                    num(t.sigma_s),
+                    num(r.sigma_s)
+                ))
             ),
             None => "The model has no door reference (refit to learn one).".into(),
         }

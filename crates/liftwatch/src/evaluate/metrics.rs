@@ -73,6 +73,10 @@ pub struct MethodResult {
     /// healthy throughout, so every one is a nuisance.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub door_advisories: Option<usize>,
+    /// liftwatch only: outages reported over the whole run (out of service or stuck). No car
+    /// of the suite is ever out of service, so every one is a nuisance.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub outages: Option<usize>,
     /// liftwatch only: every event of the run (level changes, mode named, evidence), so that
     /// a false advisory or a wrong mode in the table can be read back in `evaluation.json`.
     #[serde(skip_serializing_if = "Vec::is_empty")]
@@ -126,6 +130,7 @@ impl Metrics<'_> {
             drift_z_alarm: None,
             leak_z: None,
             door_advisories: None,
+            outages: None,
             events: Vec::new(),
         }
     }
@@ -162,6 +167,7 @@ impl Metrics<'_> {
         }
         let mut r = self.result("liftwatch", false_signals, detected);
         r.door_advisories = Some(self.sink.door_advisories);
+        r.outages = Some(self.sink.outages);
         if self.truth.is_some() {
             r.mode = mode;
             r.mode_correct = mode.map(|m| {
@@ -294,6 +300,8 @@ pub(super) struct CaseSink {
     pub(super) events: Vec<Event>,
     /// Door advisories the liftwatch monitor raised.
     pub(super) door_advisories: usize,
+    /// Outages the liftwatch monitor reported.
+    pub(super) outages: usize,
     /// Times the threshold method's alarm switched on.
     pub(super) thr_activations: Vec<f64>,
     pub(super) thr_prev: Level,
@@ -307,8 +315,10 @@ impl CaseSink {
         if let Some(e) = r.event {
             self.events.push(e);
         }
-        if let Some(OperationEvent::Door { raised: true, .. }) = r.operation {
-            self.door_advisories += 1;
+        match r.operation {
+            Some(OperationEvent::Door { raised: true, .. }) => self.door_advisories += 1,
+            Some(OperationEvent::OutageStart(_)) => self.outages += 1,
+            _ => {}
         }
         self.trips.extend(self.seg_pinn.push(r));
     }

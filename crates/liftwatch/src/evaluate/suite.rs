@@ -372,6 +372,7 @@ pub fn run_case(case: &Case, trained: &Trained, cfg: &SuiteConfig) -> Result<Cas
         thr_trips: Vec::new(),
         events: Vec::new(),
         door_advisories: 0,
+        outages: 0,
         thr_activations: Vec::new(),
         thr_prev: Level::Normal,
         severity: Vec::with_capacity((case.days * DAY_S) as usize + 2),

@@ -103,16 +103,18 @@ pub fn table(ev: &Evaluation) -> String {
             }
         ));
     }
-    let (doors, days) = ev.cases.iter().fold((0, 0.0), |(n, d), c| {
-        let door = c
-            .methods
-            .iter()
-            .find_map(|m| m.door_advisories)
-            .unwrap_or(0);
-        (n + door, d + c.case.days)
+    let (doors, outages, days) = ev.cases.iter().fold((0, 0, 0.0), |(n, o, d), c| {
+        let count = |f: fn(&MethodResult) -> Option<usize>| {
+            c.methods.iter().find_map(f).unwrap_or(0)
+        };
+        (
+            n + count(|m| m.door_advisories),
+            o + count(|m| m.outages),
+            d + c.case.days,
+        )
     });
     s.push_str(&format!(
-        "\nliftwatch door advisories (every door of the suite is healthy): {doors} in {:.2} elevator-years of runs\n",
+        "\nliftwatch door advisories (every door of the suite is healthy): {doors}; outages reported (no car of the suite is ever out of service): {outages}; in {:.2} elevator-years of runs\n",
         days / YEAR_DAYS
     ));
     s.push_str(

@@ -104,9 +104,8 @@ pub fn table(ev: &Evaluation) -> String {
         ));
     }
     let (doors, outages, days) = ev.cases.iter().fold((0, 0, 0.0), |(n, o, d), c| {
-        let count = |f: fn(&MethodResult) -> Option<usize>| {
-            c.methods.iter().find_map(f).unwrap_or(0)
-        };
+        let count =
+            |f: fn(&MethodResult) -> Option<usize>| c.methods.iter().find_map(f).unwrap_or(0);
         (
             n + count(|m| m.door_advisories),
             o + count(|m| m.outages),

@@ -593,6 +593,9 @@ pub struct OperationTracker {
     /// once one was missing).
     #[serde(with = "exact", default = "crate::exact::nan")]
     load_min: f64,
+    /// The last floor reading (NaN: none yet).
+    #[serde(with = "exact", default = "crate::exact::nan")]
+    floor_prev: f64,
     /// Time of the last moving sample, or of the first sample (s).
     #[serde(with = "exact")]
     rest_since: f64,
@@ -636,6 +639,7 @@ impl OperationTracker {
             moved_since_close: false,
             load_closed: f64::NAN,
             load_min: f64::NAN,
+            floor_prev: f64::NAN,
             rest_since: f64::NAN,
             expected: 0.0,
             pending: Vec::new(),
@@ -685,6 +689,19 @@ impl OperationTracker {
         }
         let moving = x.speed.is_finite() && x.speed > thr;
         let at_rest = x.speed.is_finite() && !moving;
+        // A door that opens or a floor reading that changes is a car in use, whatever the
+        // speed reads (a speed sensor stuck at zero on a travelling car is a sensor fault,
+        // named as one, not an outage): the silence starts again, an outage under way stays.
+        let used = (self.door_prev == 0.0 && x.door.is_finite() && x.door != 0.0)
+            || (x.floor.is_finite() && self.floor_prev.is_finite() && x.floor != self.floor_prev);
+        if x.floor.is_finite() {
+            self.floor_prev = x.floor;
+        }
+        if used && !moving && self.open.is_none() {
+            self.rest_since = t;
+            self.expected = 0.0;
+            self.pending.clear();
+        }
         if moving {
             self.moved_since_close = true;
             self.between_since = f64::NAN;
@@ -884,13 +901,25 @@ impl OperationTracker {
 }
 
 /// Distance (m) from where trip `t` ended to the nearest landing, the trip's start taken as
-/// level with its `from_floor`; None when the start floor or the landings are unknown.
+/// level with its `from_floor`; None when the start floor or the landings are unknown, or
+/// when the end lies beyond the end landings by more than [`LEVEL_TOLERANCE_M`] (no car stands
+/// outside its shaft: that trip is a speed reading's, not the car's).
 pub fn level_offset(landings_m: &[f64], t: &Trip) -> Option<f64> {
     if !t.from_floor.is_finite() || t.from_floor < 1.0 || !t.distance_m.is_finite() {
         return None;
     }
     let from = landings_m.get(t.from_floor as usize - 1)?;
     let x = from + f64::from(t.direction) * t.distance_m;
+    let (low, high) = landings_m
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| {
+            (l.min(v), h.max(v))
+        });
+    if x < low - LEVEL_TOLERANCE_M || x > high + LEVEL_TOLERANCE_M {
+        // No car stands outside its shaft: the speed reading travelled, not the car (a
+        // speed sensor stuck at a travelling value makes an hour-long "trip" kilometres long).
+        return None;
+    }
     landings_m
         .iter()
         .map(|h| (h - x).abs())
@@ -1375,6 +1404,11 @@ mod tests {
         stuck.distance_m = 5.0; // from landing 2 at 4.2 m up 5 m: 9.2 m, 1.7 m from landing 4
         assert!(level_offset(&got, &stuck).unwrap() > LEVEL_TOLERANCE_M);
         assert!(level_offset(&got, &trips[1]).unwrap() < LEVEL_TOLERANCE_M);
+        let beyond = Trip {
+            distance_m: 5000.0,
+            ..trips[1]
+        };
+        assert_eq!(level_offset(&got, &beyond), None, "outside the shaft");
         assert!(
             learn_landings(&trips[..2], 5).is_empty(),
             "landing 5 never reached"
@@ -1420,6 +1454,36 @@ mod tests {
             bare.push(&sample(f64::from(i), 0.0, 0.0, 1.0), 1.0, 0.05, None);
         }
         assert!(bare.take_event().is_none() && bare.availability(1) == 1.0);
+    }
+
+    /// A speed sensor stuck at zero on a travelling car: the floor reading changes every two
+    /// minutes and the door opens at each stop, so the car is in use and no outage is
+    /// reported; the same hours with floor and door still are one.
+    #[test]
+    fn a_car_in_use_is_no_outage_whatever_the_speed_reads() {
+        let r = OperationReference {
+            trips_per_hour: vec![30.0; HOURS_PER_WEEK],
+            outage_expected_trips: 20.0,
+            quiet_max_expected_trips: 10.0,
+            landings_m: Vec::new(),
+            door: None,
+        };
+        let outages = |in_use: bool| {
+            let mut tr = OperationTracker::new();
+            let mut n = 0;
+            for i in 0..3 * 3600 {
+                let stop = if in_use { i / 120 } else { 0 };
+                let door = if in_use && i % 120 >= 100 { 1.0 } else { 0.0 };
+                let x = sample(f64::from(i), 0.0, door, f64::from(1 + stop % 5));
+                tr.push(&x, 1.0, 0.05, Some(&r));
+                while let Some(e) = tr.take_event() {
+                    n += usize::from(matches!(e, OperationEvent::OutageStart(_)));
+                }
+            }
+            n
+        };
+        assert_eq!(outages(true), 0);
+        assert_eq!(outages(false), 1);
     }
 
     /// Trained on Monday to Wednesday of an office (a trip every 2 min from 07:00 to 19:00,

@@ -211,11 +211,17 @@ pub struct DoorTransfer {
 }
 
 impl DoorReference {
-    /// Whether cycle `c` is scored against this reference: with a transfer law, only a cycle
-    /// whose exchanged load was read.
+    /// Whether cycle `c` is scored against this reference ([`scored_with`]).
     fn scores_cycle(&self, c: &DoorCycle) -> bool {
-        c.duration_s <= DOOR_CYCLE_MAX_S && (self.transfer.is_none() || c.exchange.is_finite())
+        scored_with(self.transfer.as_ref(), c)
     }
+}
+
+/// Whether cycle `c` is scored with the transfer law `transfer`: a door cycle, not a door
+/// held open, and, with a law, one whose exchanged load was read. The training's cycles and
+/// the monitor's are chosen by this one test.
+fn scored_with(transfer: Option<&DoorTransfer>, c: &DoorCycle) -> bool {
+    c.duration_s <= DOOR_CYCLE_MAX_S && (transfer.is_none() || c.exchange.is_finite())
 }
 
 /// Everything [`OperationTracker`] compares with, learnt in `fit`; models written before it
@@ -698,9 +704,7 @@ impl OperationTracker {
             self.floor_prev = x.floor;
         }
         if used && !moving && self.open.is_none() {
-            self.rest_since = t;
-            self.expected = 0.0;
-            self.pending.clear();
+            self.restart_silence(t);
         }
         if moving {
             self.moved_since_close = true;
@@ -710,9 +714,7 @@ impl OperationTracker {
                 self.queue.push_back(OperationEvent::OutageEnd(o));
                 self.last_outage = Some(o);
             }
-            self.rest_since = t;
-            self.expected = 0.0;
-            self.pending.clear();
+            self.restart_silence(t);
         } else if self.open.is_some() {
             self.day_mut(t).outage_s += step_s;
         } else if at_rest {
@@ -739,6 +741,13 @@ impl OperationTracker {
             }
         }
         cycle
+    }
+
+    /// The car was in use at `t`: the silence, its Λ and its unclaimed rest start again.
+    fn restart_silence(&mut self, t: f64) {
+        self.rest_since = t;
+        self.expected = 0.0;
+        self.pending.clear();
     }
 
     /// Opens an outage when the silence is long and unlikely enough, or the car stands
@@ -1127,13 +1136,10 @@ impl DoorReference {
         let d: Vec<f64> = scored.iter().map(|c| c.duration_s).collect();
         let (median_s, sigma_s) = (median(&d), robust_sigma(d.iter().copied()).max(step_s));
         let transfer = DoorTransfer::fit(&scored, step_s);
-        let scored: Vec<DoorCycle> = match transfer {
-            Some(_) => scored
-                .into_iter()
-                .filter(|c| c.exchange.is_finite())
-                .collect(),
-            None => scored,
-        };
+        let scored: Vec<DoorCycle> = scored
+            .into_iter()
+            .filter(|c| scored_with(transfer.as_ref(), c))
+            .collect();
         let reopen = scored.iter().filter(|c| c.reopening).count() as f64 / scored.len() as f64;
         let mut r = DoorReference {
             median_s,
@@ -1415,15 +1421,33 @@ mod tests {
         );
     }
 
-    #[test]
-    fn a_silence_through_busy_hours_is_an_outage_and_ends_with_motion() {
-        let r = OperationReference {
+    /// A reference of 30 trips an hour at every hour, an outage at 20 expected trips.
+    fn busy_reference() -> OperationReference {
+        OperationReference {
             trips_per_hour: vec![30.0; HOURS_PER_WEEK],
             outage_expected_trips: 20.0,
             quiet_max_expected_trips: 10.0,
             landings_m: Vec::new(),
             door: None,
-        };
+        }
+    }
+
+    /// The outages a fresh tracker with reference `r` starts on `samples` (step 1 s).
+    fn outage_starts(r: &OperationReference, samples: impl Iterator<Item = Sample>) -> usize {
+        let mut tr = OperationTracker::new();
+        let mut n = 0;
+        for x in samples {
+            tr.push(&x, 1.0, 0.05, Some(r));
+            while let Some(e) = tr.take_event() {
+                n += usize::from(matches!(e, OperationEvent::OutageStart(_)));
+            }
+        }
+        n
+    }
+
+    #[test]
+    fn a_silence_through_busy_hours_is_an_outage_and_ends_with_motion() {
+        let r = busy_reference();
         let mut tr = OperationTracker::new();
         let mut events = Vec::new();
         for i in 0..7200 {
@@ -1461,26 +1485,14 @@ mod tests {
     /// reported; the same hours with floor and door still are one.
     #[test]
     fn a_car_in_use_is_no_outage_whatever_the_speed_reads() {
-        let r = OperationReference {
-            trips_per_hour: vec![30.0; HOURS_PER_WEEK],
-            outage_expected_trips: 20.0,
-            quiet_max_expected_trips: 10.0,
-            landings_m: Vec::new(),
-            door: None,
-        };
+        let r = busy_reference();
         let outages = |in_use: bool| {
-            let mut tr = OperationTracker::new();
-            let mut n = 0;
-            for i in 0..3 * 3600 {
+            let samples = (0..3 * 3600).map(|i| {
                 let stop = if in_use { i / 120 } else { 0 };
                 let door = if in_use && i % 120 >= 100 { 1.0 } else { 0.0 };
-                let x = sample(f64::from(i), 0.0, door, f64::from(1 + stop % 5));
-                tr.push(&x, 1.0, 0.05, Some(&r));
-                while let Some(e) = tr.take_event() {
-                    n += usize::from(matches!(e, OperationEvent::OutageStart(_)));
-                }
-            }
-            n
+                sample(f64::from(i), 0.0, door, f64::from(1 + stop % 5))
+            });
+            outage_starts(&r, samples)
         };
         assert_eq!(outages(true), 0);
         assert_eq!(outages(false), 1);
@@ -1519,16 +1531,11 @@ mod tests {
         assert!((r.trips_per_hour[hour_bin(DAY + 9.0 * 3600.0)] - 30.0).abs() < 1e-9);
         assert_eq!(r.trips_per_hour[hour_bin(5.0 * DAY + 9.0 * 3600.0)], 0.0);
         let outages = |from: f64, to: f64, every: i64| {
-            let mut tr = OperationTracker::new();
-            let mut n = 0;
-            for t in (from as i64)..(to as i64) {
+            let samples = ((from as i64)..(to as i64)).map(|t| {
                 let v = if t % every == 0 { 1.0 } else { 0.0 };
-                tr.push(&sample(t as f64, v, 0.0, 1.0), 1.0, 0.05, Some(&r));
-                while let Some(e) = tr.take_event() {
-                    n += usize::from(matches!(e, OperationEvent::OutageStart(_)));
-                }
-            }
-            n
+                sample(t as f64, v, 0.0, 1.0)
+            });
+            outage_starts(&r, samples)
         };
         assert_eq!(
             outages(5.0 * DAY, 6.0 * DAY, 3 * 3600),

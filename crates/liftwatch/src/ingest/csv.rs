@@ -9,8 +9,9 @@
 //!              anything else, ±inf        -> bad row (raw) / bad value read as missing (aligned)
 //! ```
 //!
-//! One reused `csv::ByteRecord`; fields are trimmed as bytes and parsed with
-//! [`parse_f64`] (the same bits as `str::parse::<f64>`), so a good row allocates nothing.
+//! Records come from [`Records`] into reused buffers; fields are trimmed as bytes and parsed
+//! with [`parse_f64`] (the same bits as `str::parse::<f64>`), so a good row allocates
+//! nothing.
 //!
 //! Deviation from the paper: none; the paper does not describe its file format.
 
@@ -18,12 +19,10 @@ use std::io::Read;
 use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
 
-use ::csv::{ByteRecord, ReaderBuilder};
-
+use super::records::Records;
 use super::time::{parse_time_field, TimeError, TimeForm};
 use super::{IngestReport, Layout, Signal};
 use crate::error::{Error, Result};
-use crate::limits::LineBounded;
 use crate::sample::Sample;
 use crate::text::parse_f64;
 
@@ -89,8 +88,7 @@ fn time_reason(field: &[u8], err: TimeError, form: Option<TimeForm>) -> String {
 
 /// A streaming reader of one telemetry file, either layout.
 pub struct RowReader<R: Read> {
-    rdr: ::csv::Reader<LineBounded<R>>,
-    rec: ByteRecord,
+    rec: Records<R>,
     layout: Layout,
     /// Fields every row must have: the header's count.
     fields: usize,
@@ -107,17 +105,8 @@ impl<R: Read> RowReader<R> {
     /// [`Error::Io`] on a read error, [`Error::NoData`] for an empty file,
     /// [`Error::UnknownLayout`] for a header of neither layout.
     pub fn new(input: R, path: &Path) -> Result<Self> {
-        let rdr = ReaderBuilder::new()
-            .has_headers(false)
-            .flexible(true)
-            .buffer_capacity(1 << 16)
-            // `\n` only: a CRLF line keeps its `\r`, trimmed with the field, so that
-            // line numbers stay those of the file (csv counts `\r\n` as two breaks).
-            .terminator(::csv::Terminator::Any(b'\n'))
-            .from_reader(LineBounded::new(input));
         let mut reader = RowReader {
-            rdr,
-            rec: ByteRecord::new(),
+            rec: Records::new(input),
             layout: Layout::Raw,
             fields: 0,
             current_col: None,
@@ -179,45 +168,26 @@ impl<R: Read> RowReader<R> {
 
     /// Gives the input back, to read it again from the start.
     pub fn into_inner(self) -> R {
-        self.rdr.into_inner().into_inner()
+        self.rec.into_inner()
     }
 
     fn read(&mut self) -> Result<bool> {
-        self.rdr.read_byte_record(&mut self.rec).map_err(|e| {
-            let line = e.position().map_or(0, ::csv::Position::line);
-            match e.into_kind() {
-                ::csv::ErrorKind::Io(io) => Error::io(&self.path, io),
-                other => Error::BadDocument {
-                    path: self.path.clone(),
-                    what: "CSV file",
-                    why: format!("line {line}: {other:?}"),
-                },
-            }
-        })
+        self.rec.read().map_err(|e| Error::io(&self.path, e))
     }
 
     /// Line of the current row (of its end, for a quoted field spanning lines).
-    ///
-    /// csv gives the position before the row and after its `\n`; a row without `\n`
-    /// is the unterminated last one (a blank line before that one shifts it by one).
     fn line(&self) -> u64 {
-        let start = self.rec.position().map_or(0, ::csv::Position::line);
-        let after = self.rdr.position().line();
-        if after > start {
-            after - 1
-        } else {
-            after
-        }
+        self.rec.line()
     }
 
     /// A row of only whitespace, such as the `\r` of a blank CRLF line: not a row.
     fn is_blank(&self) -> bool {
-        self.rec.len() == 1 && self.rec[0].trim_ascii().is_empty()
+        self.rec.len() == 1 && self.rec.field(0).trim_ascii().is_empty()
     }
 
     /// Reads the time field of the current row, counting it as bad when unreadable.
     fn time(&mut self, report: &mut IngestReport, line: u64) -> Option<f64> {
-        let field = self.rec[0].trim_ascii();
+        let field = self.rec.field(0).trim_ascii();
         match parse_time_field(field, &mut self.form) {
             Ok(t) => Some(t),
             Err(err) => {
@@ -275,12 +245,12 @@ impl<R: Read> RowReader<R> {
             let Some(t) = self.time(report, line) else {
                 continue;
             };
-            let name = self.rec[1].trim_ascii();
+            let name = self.rec.field(1).trim_ascii();
             let Some(sig) = Signal::from_name(name) else {
                 report.unknown(name);
                 continue;
             };
-            let field = self.rec[2].trim_ascii();
+            let field = self.rec.field(2).trim_ascii();
             let v = match parse_value(field) {
                 Value::Number(v) => v,
                 Value::Missing => {
@@ -342,7 +312,7 @@ impl<R: Read> RowReader<R> {
                     },
                     s => s.index() + 1,
                 };
-                let field = self.rec[col].trim_ascii();
+                let field = self.rec.field(col).trim_ascii();
                 match parse_value(field) {
                     Value::Number(v) => {
                         sig.set(&mut sample, v);

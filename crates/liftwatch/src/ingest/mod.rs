@@ -7,7 +7,7 @@
 //! ```
 //!
 //! The header tells the layouts apart (case-insensitive, trimmed, UTF-8 BOM stripped,
-//! CRLF accepted). Rows are read one at a time into a reused `csv::ByteRecord`, so memory
+//! CRLF accepted). Rows are read one at a time into reused buffers ([`records`]), so memory
 //! does not grow with the file; alignment ([`crate::align`]) consumes them as they come.
 //! Bad rows are not errors: they are skipped and counted in an [`IngestReport`], whose
 //! [`IngestReport::warning`] is the one line the CLI prints.
@@ -16,6 +16,7 @@
 //! reorder and garble rows, so the reader counts every kind of damage instead of failing.
 
 pub mod csv;
+pub mod records;
 pub mod time;
 
 use std::collections::BTreeMap;

@@ -47,6 +47,7 @@ pub mod linalg;
 pub mod rng;
 pub mod stats;
 pub mod text;
+pub mod wide;
 pub mod sample;
 pub mod limits;
 pub mod elevator;

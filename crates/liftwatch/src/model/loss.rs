@@ -245,7 +245,17 @@ pub struct LossStats {
 
 impl Objective<'_> {
     /// Loss at `x` = (z, network weights); writes the gradient into `grad` when given.
-    pub fn eval(&self, x: &[f64], mut grad: Option<&mut [f64]>) -> (f64, LossStats) {
+    ///
+    /// Runs in the processor's widest vectors ([`crate::wide`]), with the same bits.
+    pub fn eval(&self, x: &[f64], grad: Option<&mut [f64]>) -> (f64, LossStats) {
+        crate::wide::wide(
+            #[inline(always)]
+            || self.eval_here(x, grad),
+        )
+    }
+
+    #[inline(always)]
+    fn eval_here(&self, x: &[f64], mut grad: Option<&mut [f64]>) -> (f64, LossStats) {
         let (z, w) = x.split_at(N_PHYS);
         let p = self.map.theta(z);
         let lw = &self.weights;

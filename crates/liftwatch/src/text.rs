@@ -32,47 +32,136 @@ const POW10: [f64; 23] = [
 /// Integer arithmetic instead of `format!`, which formats the exact binary value digit by
 /// digit: several times faster. Values beyond `MAX_SCALED` fall back to `format!`.
 pub fn push_fixed(out: &mut Vec<u8>, v: f64, dec: usize) {
-    if !v.is_finite() {
-        return;
+    match Fixed::of(v, dec) {
+        Fixed::Missing => {}
+        Fixed::Digits(f) => {
+            let (buf, i) = f.text();
+            push_bytes(out, &buf[i..]);
+        }
+        Fixed::Large => {
+            let dec = dec.min(9);
+            let _ = write!(out, "{v:.dec$}");
+        }
     }
-    let dec = dec.min(9);
-    let scale = 10u64.pow(dec as u32);
-    let x = v.abs() * scale as f64;
-    // `x.round()` (half away from zero) without the libm call that baseline x86-64 makes of
-    // it: the truncation and the remainder of a float below 2^64 are exact.
-    let mut n = x as u64;
-    if x - n as f64 >= 0.5 {
-        n += 1;
+}
+
+/// A value as [`push_fixed`] writes it, before its digits.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Fixed {
+    /// Not finite: an empty field.
+    Missing,
+    /// Beyond [`MAX_SCALED`]: the standard formatter's text.
+    Large,
+    /// round(|v|·10^dec), its sign and `dec`: the text is a function of these alone.
+    Digits(Rounded),
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Rounded {
+    n: u64,
+    negative: bool,
+    dec: usize,
+}
+
+impl Fixed {
+    #[inline]
+    fn of(v: f64, dec: usize) -> Fixed {
+        let dec = dec.min(9);
+        let x = v.abs() * POW10[dec];
+        // Also false for NaN and infinities.
+        if !(x < MAX_SCALED) {
+            return if v.is_finite() {
+                Fixed::Large
+            } else {
+                Fixed::Missing
+            };
+        }
+        // `x.round()` (half away from zero) without the libm call that baseline x86-64 makes
+        // of it: the truncation and the remainder of a float below 2^53 are exact, and signed
+        // integers convert to and from floats in one instruction each.
+        let t = x as i64;
+        let n = t + i64::from(x - t as f64 >= 0.5);
+        if n >= MAX_SCALED as i64 {
+            return Fixed::Large;
+        }
+        Fixed::Digits(Rounded {
+            n: n as u64,
+            negative: v < 0.0 && n != 0,
+            dec,
+        })
     }
-    if x >= MAX_SCALED || n as f64 >= MAX_SCALED {
-        let _ = write!(out, "{v:.dec$}");
-        return;
+}
+
+impl Rounded {
+    /// The text right to left in one small buffer: exactly `dec` digits of the fraction, the
+    /// point, the whole part, the sign; the digits peeled off `n` itself, so no division by
+    /// the variable 10^dec. Returns the buffer and where the text starts in it.
+    fn text(self) -> ([u8; 32], usize) {
+        let mut buf = [0u8; 32];
+        let mut i = buf.len();
+        let mut m = self.n;
+        for _ in 0..self.dec {
+            i -= 1;
+            buf[i] = b'0' + (m % 10) as u8;
+            m /= 10;
+        }
+        if self.dec > 0 {
+            i -= 1;
+            buf[i] = b'.';
+        }
+        i = put_whole(&mut buf, i, m);
+        if self.negative {
+            i -= 1;
+            buf[i] = b'-';
+        }
+        (buf, i)
     }
-    // The text right to left in one small buffer: exactly `dec` digits of the fraction, the
-    // point, the whole part, the sign; the digits peeled off `n` itself, so no division by
-    // the variable 10^dec.
-    let mut buf = [0u8; 32];
-    let mut i = buf.len();
-    let mut m = n;
-    for _ in 0..dec {
-        i -= 1;
-        buf[i] = b'0' + (m % 10) as u8;
-        m /= 10;
-    }
-    if dec > 0 {
-        i -= 1;
-        buf[i] = b'.';
-    }
-    i = put_whole(&mut buf, i, m);
-    if v < 0.0 && n != 0 {
-        i -= 1;
-        buf[i] = b'-';
-    }
-    // Byte by byte: a block copy of bytes just stored one at a time stalls on store
-    // forwarding, and a copy of a few bytes of unknown length is a library call.
-    out.reserve(buf.len() - i);
-    for &b in &buf[i..] {
+}
+
+/// Appends a few bytes one by one: a block copy of bytes just stored one at a time stalls on
+/// store forwarding, and a copy of a few bytes of unknown length is a library call.
+#[inline]
+fn push_bytes(out: &mut Vec<u8>, bytes: &[u8]) {
+    out.reserve(bytes.len());
+    for &b in bytes {
         out.push(b);
+    }
+}
+
+/// One column of rows written by [`push_fixed`] that keeps its last text: a value that rounds
+/// to the digits of the row before is copied instead of formatted again. Between trips most
+/// of a monitor's columns (risks, drifts) hold still from one second to the next.
+#[derive(Clone, Debug)]
+pub struct FixedColumn {
+    dec: usize,
+    last: Option<Rounded>,
+    text: [u8; 32],
+    start: usize,
+}
+
+impl FixedColumn {
+    /// A column of `dec` decimals (at most 9).
+    pub fn new(dec: usize) -> Self {
+        FixedColumn {
+            dec,
+            last: None,
+            text: [0; 32],
+            start: 32,
+        }
+    }
+
+    /// Appends `v` as [`push_fixed`] does, to the byte.
+    pub fn push(&mut self, out: &mut Vec<u8>, v: f64) {
+        match Fixed::of(v, self.dec) {
+            Fixed::Digits(r) => {
+                if self.last != Some(r) {
+                    (self.text, self.start) = r.text();
+                    self.last = Some(r);
+                }
+                push_bytes(out, &self.text[self.start..]);
+            }
+            _ => push_fixed(out, v, self.dec),
+        }
     }
 }
 
@@ -203,6 +292,32 @@ mod tests {
         assert_eq!(fixed(f64::NAN, 2), "");
         assert_eq!(fixed(1e12, 1), "1000000000000.0");
         assert_eq!(fixed(1e17, 1), "100000000000000000.0");
+    }
+
+    #[test]
+    fn a_column_that_keeps_its_last_text_writes_the_same_bytes() {
+        // Runs of repeated values (a monitor's columns between trips), values that round to
+        // the same digits from different bits, sign changes through zero, gaps, the large.
+        let mut rng = Rng::new(5);
+        for dec in [0, 1, 2, 3, 9] {
+            let mut column = FixedColumn::new(dec);
+            let (mut got, mut want) = (Vec::new(), Vec::new());
+            let mut v = 0.0;
+            for k in 0..20_000 {
+                v = match k % 7 {
+                    0 | 1 | 2 => v,
+                    3 => v + rng.uniform(-1e-5, 1e-5),
+                    4 => rng.uniform(-2.0, 2.0) * 10f64.powi(-(dec as i32)),
+                    5 => [f64::NAN, f64::INFINITY, 1e17, -0.0][rng.below(4) as usize],
+                    _ => rng.uniform(-500.0, 500.0),
+                };
+                column.push(&mut got, v);
+                push_fixed(&mut want, v, dec);
+                got.push(b',');
+                want.push(b',');
+            }
+            assert_eq!(String::from_utf8(got).unwrap(), String::from_utf8(want).unwrap());
+        }
     }
 
     #[test]

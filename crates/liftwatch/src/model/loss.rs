@@ -193,11 +193,17 @@ pub struct LossWeights {
 
 /// Derivatives of the physical model for one observation with respect to θ.
 struct PhysEval {
+    value: HeldPhysics,
+    du: [f64; N_PHYS],
+    df: [f64; N_PHYS],
+}
+
+/// F, U_phys and F_U of one observation at a fixed θ.
+#[derive(Clone, Copy, Debug)]
+pub struct HeldPhysics {
     f: f64,
     u: f64,
     f_u: f64,
-    du: [f64; N_PHYS],
-    df: [f64; N_PHYS],
 }
 
 /// F, U_phys, F_U and their θ-derivatives for one observation.
@@ -211,7 +217,11 @@ fn phys_eval(p: &PhysParams, motor_ref: &PhysParams, o: &Obs, m_r: f64) -> PhysE
     let du = p.du_dtheta_at(o.s, o.v, o.a, o.q, f);
     // F_U through the reference motor model: no gradient flows into θ from here.
     let f_u = motor_ref.force_from_voltage(o.s, o.v, o.u);
-    PhysEval { f, u, f_u, du, df }
+    PhysEval {
+        value: HeldPhysics { f, u, f_u },
+        du,
+        df,
+    }
 }
 
 /// The objective over one training set.
@@ -250,12 +260,19 @@ impl Objective<'_> {
     pub fn eval(&self, x: &[f64], grad: Option<&mut [f64]>) -> (f64, LossStats) {
         crate::wide::wide(
             #[inline(always)]
-            || self.eval_here(x, grad),
+            || self.eval_here(x, grad, None),
         )
     }
 
+    /// The loss and gradient at `x`; with `held`, θ is the one `held` was computed at: each
+    /// observation's physics is read from it instead of evaluated, and θ's gradient is 0.
     #[inline(always)]
-    fn eval_here(&self, x: &[f64], mut grad: Option<&mut [f64]>) -> (f64, LossStats) {
+    fn eval_here(
+        &self,
+        x: &[f64],
+        mut grad: Option<&mut [f64]>,
+        held: Option<&[HeldPhysics]>,
+    ) -> (f64, LossStats) {
         let (z, w) = x.split_at(N_PHYS);
         let p = self.map.theta(z);
         let lw = &self.weights;
@@ -270,7 +287,7 @@ impl Objective<'_> {
         let (mut sum, mut wsum) = (0.0, 0.0);
         let (mut su, mut sf, mut wm) = (0.0, 0.0, 0.0);
         let mut cache = NetCache::<LANES>::default();
-        for chunk in self.data.chunks(LANES) {
+        for (c, chunk) in self.data.chunks(LANES).enumerate() {
             let xin: [[f64; 3]; LANES] = std::array::from_fn(|l| {
                 chunk.get(l).map_or([0.0; 3], |o| {
                     [
@@ -283,7 +300,13 @@ impl Objective<'_> {
             let y = forward_lanes(w, &xin, &mut cache);
             let mut dy = [[0.0; LANES]; 2];
             for (l, o) in chunk.iter().enumerate() {
-                let pe = phys_eval(&p, &self.motor_ref, o, self.rated_load_kg);
+                let (pe, derivatives) = match held {
+                    Some(h) => (h[c * LANES + l], None),
+                    None => {
+                        let pe = phys_eval(&p, &self.motor_ref, o, self.rated_load_kg);
+                        (pe.value, Some(pe))
+                    }
+                };
                 let (du, df) = (
                     y[0][l] * self.output_scale[0],
                     y[1][l] * self.output_scale[1],
@@ -292,23 +315,27 @@ impl Objective<'_> {
                 let mut li = lw.w_u * r_u * r_u * iu2 + lw.w_n * (du * du * iu2 + df * df * if2);
                 let g_du = -2.0 * lw.w_u * r_u * iu2 + 2.0 * lw.w_n * du * iu2;
                 let mut g_df = 2.0 * lw.w_n * df * if2;
-                let mut g_th = pe.du.map(|d| -2.0 * lw.w_u * r_u * iu2 * d);
+                let r_f = pe.f + df - pe.f_u;
                 if o.s != 0 {
-                    let r_f = pe.f + df - pe.f_u;
                     li += lw.w_f * r_f * r_f * if2;
                     g_df += 2.0 * lw.w_f * r_f * if2;
-                    for (g, d) in g_th.iter_mut().zip(pe.df) {
-                        *g += 2.0 * lw.w_f * r_f * if2 * d;
-                    }
                     su += o.w * r_u * r_u;
                     sf += o.w * r_f * r_f;
                     wm += o.w;
                 }
+                if let Some(d) = derivatives {
+                    let mut g_th = d.du.map(|d| -2.0 * lw.w_u * r_u * iu2 * d);
+                    if o.s != 0 {
+                        for (g, d) in g_th.iter_mut().zip(d.df) {
+                            *g += 2.0 * lw.w_f * r_f * if2 * d;
+                        }
+                    }
+                    for k in 0..N_PHYS {
+                        gtheta[k] += o.w * g_th[k];
+                    }
+                }
                 sum += o.w * li;
                 wsum += o.w;
-                for k in 0..N_PHYS {
-                    gtheta[k] += o.w * g_th[k];
-                }
                 dy[0][l] = o.w * g_du * self.output_scale[0];
                 dy[1][l] = o.w * g_df * self.output_scale[1];
             }
@@ -327,7 +354,11 @@ impl Objective<'_> {
         if let Some(g) = grad {
             let dz = self.map.dtheta_dz(z);
             for k in 0..N_PHYS {
-                g[k] = gtheta[k] * dz[k] * norm;
+                g[k] = if held.is_some() {
+                    0.0
+                } else {
+                    gtheta[k] * dz[k] * norm
+                };
             }
             for v in &mut g[N_PHYS..] {
                 *v *= norm;
@@ -342,6 +373,46 @@ impl Objective<'_> {
             LossStats::default()
         };
         (sum * norm, stats)
+    }
+}
+
+/// [`Objective`] with θ held where it is: each observation's physics computed once, so that
+/// an evaluation costs the network's passes alone (stage 2, where only the network moves).
+/// The same loss and network gradient as [`Objective::eval`], bit for bit; θ's gradient reads
+/// 0, so a quasi-Newton solver never moves it.
+pub struct HeldTheta<'a> {
+    objective: &'a Objective<'a>,
+    z: [f64; N_PHYS],
+    physics: Vec<HeldPhysics>,
+}
+
+impl<'a> HeldTheta<'a> {
+    /// `objective` with θ held at `z`.
+    pub fn new(objective: &'a Objective<'a>, z: &[f64; N_PHYS]) -> Self {
+        let p = objective.map.theta(z);
+        let physics = objective
+            .data
+            .iter()
+            .map(|o| phys_eval(&p, &objective.motor_ref, o, objective.rated_load_kg).value)
+            .collect();
+        HeldTheta {
+            objective,
+            z: *z,
+            physics,
+        }
+    }
+
+    /// Loss at `x` = (z, network weights), whose z must be the held one; writes the gradient
+    /// (0 for z) into `grad` when given.
+    ///
+    /// # Panics
+    /// When `x` holds another z.
+    pub fn eval(&self, x: &[f64], grad: Option<&mut [f64]>) -> (f64, LossStats) {
+        assert!(x[..N_PHYS] == self.z, "HeldTheta evaluated at another θ");
+        crate::wide::wide(
+            #[inline(always)]
+            || self.objective.eval_here(x, grad, Some(&self.physics)),
+        )
     }
 }
 
@@ -413,12 +484,32 @@ mod tests {
     }
 
     #[test]
+    fn holding_theta_gives_the_loss_and_network_gradient_bit_for_bit() {
+        // 37 observations: chunks of lanes and a partial one, all three directions.
+        let mut rng = Rng::new(12);
+        let data = random_data(&mut rng, 37);
+        let obj = objective(&data);
+        let x: Vec<f64> = (0..N_UNKNOWNS).map(|_| rng.uniform(-0.5, 0.5)).collect();
+        let z: [f64; N_PHYS] = x[..N_PHYS].try_into().unwrap();
+        let held = HeldTheta::new(&obj, &z);
+        let (mut g, mut gh) = (vec![0.0; N_UNKNOWNS], vec![1.0; N_UNKNOWNS]);
+        let (loss, st) = obj.eval(&x, Some(&mut g));
+        let (loss_h, st_h) = held.eval(&x, Some(&mut gh));
+        assert_eq!(loss.to_bits(), loss_h.to_bits());
+        assert_eq!(st, st_h);
+        assert!(gh[..N_PHYS].iter().all(|&v| v == 0.0));
+        assert!(g[..N_PHYS].iter().any(|&v| v != 0.0));
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&g[N_PHYS..]), bits(&gh[N_PHYS..]));
+    }
+
+    #[test]
     fn the_loss_predicts_the_voltage_the_model_does() {
         let mut rng = Rng::new(5);
         let e = Elevator::new(1000.0, 1.75, 26);
         let p = PhysParams::prior_centre(&e);
         for o in random_data(&mut rng, 30) {
-            assert_eq!(phys_eval(&p, &p, &o, 1000.0).u, o.u_phys(&p, 1000.0));
+            assert_eq!(phys_eval(&p, &p, &o, 1000.0).value.u, o.u_phys(&p, 1000.0));
         }
     }
 

@@ -42,10 +42,12 @@ use crate::elevator::Elevator;
 use crate::error::{Error, Result};
 use crate::features::FeatureRow;
 use crate::linalg::SquareMatrix;
-use crate::model::loss::{LossStats, LossWeights, Objective, Obs, ParamMap, Prior, N_UNKNOWNS};
+use crate::model::loss::{
+    HeldTheta, LossStats, LossWeights, Objective, Obs, ParamMap, Prior, N_UNKNOWNS,
+};
 use crate::model::net::{InputDomain, ResidualNet};
 use crate::model::optim::gauss_newton::VoltageFit;
-use crate::model::optim::{adam, lbfgs, Holding, Stop};
+use crate::model::optim::{adam, lbfgs, Stop};
 use crate::model::physics::{PhysParams, N_PHYS};
 use crate::model::ResidualScales;
 
@@ -589,10 +591,8 @@ fn fit_hybrid(
     };
     let (it, reason) = match cfg.optimizer {
         Optimizer::Lbfgs => {
-            let network = Holding {
-                problem: obj,
-                held: N_PHYS,
-            };
+            let z: [f64; N_PHYS] = x[..N_PHYS].try_into().expect("x starts with z");
+            let network = HeldTheta::new(obj, &z);
             let (it, xf, stop) = lbfgs::minimise(&network, x, cfg.epochs, &mut on_iter);
             *x = xf;
             (it, stop)

@@ -17,7 +17,7 @@ pub mod lbfgs;
 
 use serde::{Deserialize, Serialize};
 
-use crate::model::loss::{LossStats, Objective};
+use crate::model::loss::{HeldTheta, LossStats, Objective};
 
 /// Why a stage-2 solver stopped. Stated in the model file (`fit.stage2_stop`), so a fit its
 /// budget cut short is told apart from one that converged.
@@ -60,27 +60,11 @@ impl Problem for Objective<'_> {
     }
 }
 
-/// `problem` with its first `held` unknowns held where they start: their gradient reads 0, so
-/// a quasi-Newton solver never moves them.
-pub struct Holding<'a, P> {
-    /// The whole problem.
-    pub problem: &'a P,
-    /// Unknowns held, from the first.
-    pub held: usize,
-}
+impl Problem for HeldTheta<'_> {
+    type Stats = LossStats;
 
-impl<P: Problem> Problem for Holding<'_, P> {
-    type Stats = P::Stats;
-
-    fn eval(&self, x: &[f64], grad: Option<&mut [f64]>) -> (f64, P::Stats) {
-        match grad {
-            Some(g) => {
-                let r = self.problem.eval(x, Some(&mut *g));
-                g[..self.held].iter_mut().for_each(|v| *v = 0.0);
-                r
-            }
-            None => self.problem.eval(x, None),
-        }
+    fn eval(&self, x: &[f64], grad: Option<&mut [f64]>) -> (f64, LossStats) {
+        HeldTheta::eval(self, x, grad)
     }
 }
 

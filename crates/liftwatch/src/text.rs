@@ -66,15 +66,13 @@ struct Rounded {
 impl Fixed {
     #[inline]
     fn of(v: f64, dec: usize) -> Fixed {
+        if !v.is_finite() {
+            return Fixed::Missing;
+        }
         let dec = dec.min(9);
         let x = v.abs() * POW10[dec];
-        // Also false for NaN and infinities.
-        if !(x < MAX_SCALED) {
-            return if v.is_finite() {
-                Fixed::Large
-            } else {
-                Fixed::Missing
-            };
+        if x >= MAX_SCALED {
+            return Fixed::Large;
         }
         // `x.round()` (half away from zero) without the libm call that baseline x86-64 makes
         // of it: the truncation and the remainder of a float below 2^53 are exact, and signed
@@ -305,7 +303,7 @@ mod tests {
             let mut v = 0.0;
             for k in 0..20_000 {
                 v = match k % 7 {
-                    0 | 1 | 2 => v,
+                    0..=2 => v,
                     3 => v + rng.uniform(-1e-5, 1e-5),
                     4 => rng.uniform(-2.0, 2.0) * 10f64.powi(-(dec as i32)),
                     5 => [f64::NAN, f64::INFINITY, 1e17, -0.0][rng.below(4) as usize],
@@ -316,7 +314,10 @@ mod tests {
                 got.push(b',');
                 want.push(b',');
             }
-            assert_eq!(String::from_utf8(got).unwrap(), String::from_utf8(want).unwrap());
+            assert_eq!(
+                String::from_utf8(got).unwrap(),
+                String::from_utf8(want).unwrap()
+            );
         }
     }
 

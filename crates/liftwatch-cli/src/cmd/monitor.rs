@@ -180,7 +180,8 @@ struct Sink<'a> {
 /// The rows output: a file not yet started, or its CSV writer.
 enum Rows {
     File(AtomicFile),
-    Second(RowWriter<AtomicFile>),
+    /// Boxed: a row writer keeps each column's last text (about 1 KB).
+    Second(Box<RowWriter<AtomicFile>>),
     Trip(TripRowWriter<AtomicFile>),
     Gone,
 }
@@ -274,7 +275,9 @@ impl SampleSink for Sink<'_> {
         self.rows = if self.per_trip {
             Rows::Trip(TripRowWriter::new(file, self.time).with_context(cannot)?)
         } else {
-            Rows::Second(RowWriter::with_time(file, self.time).with_context(cannot)?)
+            Rows::Second(Box::new(
+                RowWriter::with_time(file, self.time).with_context(cannot)?,
+            ))
         };
         self.samples = 0;
         self.skipped = 0;

@@ -267,7 +267,11 @@ pub fn summary(m: &fit::FittedModel, trips: usize, seconds: f64) -> String {
     let _ = writeln!(s, "winding: {heating}; {daily}; {taken}");
     if let Some(op) = &m.operation {
         let doors = match &op.door {
-            None => "not checked (too few door cycles)".to_string(),
+            None => format!(
+                "not checked (fewer than {} cycles or less than {:.0} day of training)",
+                liftwatch::operation::DOOR_MIN_CYCLES,
+                liftwatch::operation::DOOR_MIN_DAYS
+            ),
             Some(d) => format!(
                 "{} cycles, median {:.0} s, {} reopen; {}",
                 d.cycles,
@@ -290,11 +294,19 @@ pub fn summary(m: &fit::FittedModel, trips: usize, seconds: f64) -> String {
                 )
             ),
         };
+        let silence = if op.checks_silence() {
+            format!(
+                "out of service after {:.1} expected trips of silence",
+                op.outage_expected_trips
+            )
+        } else {
+            "silences not judged (the training did not see every hour of the day), a car stuck between landings still is".to_string()
+        };
         let _ = writeln!(
             s,
-            "operation: {} landings placed; out of service after {:.1} expected trips of silence; doors: {doors}",
+            "operation: {} landings placed, a trip level within {:.1} m of one; {silence}; doors: {doors}",
             op.landings_m.len(),
-            op.outage_expected_trips
+            op.level_tolerance_m,
         );
     }
     let _ = writeln!(

@@ -173,28 +173,35 @@ fn text(c: &Ctx, days: &[DayUsage]) -> Vec<String> {
         .collect();
     let cycles: u64 = days.iter().map(|d| d.door_cycles).sum();
     let reopenings: u64 = days.iter().map(|d| d.reopenings).sum();
-    let mut lines =
-        vec![format!(
-        "Availability {} % over {} days of data; {} outage{}{}{}. An outage is a silence through \
-         hours in which the training week travelled (at least {} trips expected by then), or a \
-         car stopped between landings with its door closed for 5 minutes.",
-        num(if obs > 0.0 { 100.0 * (1.0 - out / obs) } else { f64::NAN }),
+    let operation = c.inp.model.operation.as_ref();
+    let what = match operation {
+        Some(o) if o.checks_silence() => format!(
+            "An outage is a silence through hours in which the training week travelled (at \
+             least {} trips expected by then), or a car stopped between landings with its door \
+             closed for 5 minutes.",
+            num(o.outage_expected_trips)
+        ),
+        _ => "An outage is a car stopped between landings with its door closed for 5 minutes; \
+              silences are not judged, as the training did not see every hour of the day."
+            .to_string(),
+    };
+    let mut lines = vec![format!(
+        "Availability {} % over {} days of data; {} outage{}{}{}. {what}",
+        num(if obs > 0.0 {
+            100.0 * (1.0 - out / obs)
+        } else {
+            f64::NAN
+        }),
         days.len(),
         outages.len(),
         if outages.len() == 1 { "" } else { "s" },
         if outages.is_empty() { "" } else { ": " },
         outages.join("; "),
-        num(c
-            .inp
-            .model
-            .operation
-            .as_ref()
-            .map_or(f64::NAN, |o| o.outage_expected_trips)),
     )];
     lines.push(format!(
         "{cycles} door cycles, {reopenings} of them reopenings ({} %). {}",
         num(100.0 * reopenings as f64 / (cycles.max(1)) as f64),
-        match c.inp.model.operation.as_ref().and_then(|o| o.door.as_ref()) {
+        match operation.and_then(|o| o.door.as_ref()) {
             Some(r) => format!(
                 "Healthy reference: median {} s, {} % reopenings, over {} training cycles.{}",
                 num(r.median_s),
@@ -210,7 +217,9 @@ fn text(c: &Ctx, days: &[DayUsage]) -> Vec<String> {
                     num(r.sigma_s)
                 ))
             ),
-            None => "The model has no door reference (refit to learn one).".into(),
+            None => "The model has no door reference: its training had fewer than 200 door \
+                     cycles or less than a day, or it was fitted before the door check existed."
+                .into(),
         }
     ));
     lines

@@ -12,7 +12,7 @@
 //! Written by hand because csv_core's byte-by-byte state machine was the largest single cost
 //! of a `monitor` run (22 % of its CPU on 30 aligned days, `perf`): a line without a quote
 //! holds no escape, so its fields are exactly the bytes between its commas, found eight bytes
-//! at a time ([`comma_ends`]; `memchr` finds the line's end and any quote). Every record with
+//! at a time (`comma_ends`; `memchr` finds the line's end and any quote). Every record with
 //! a quote still goes through csv_core, so the two paths return the same fields; a test
 //! compares them with the `csv` crate's reader on random texts of quotes, commas, CR and
 //! blank lines, handed over a few bytes at a time.

@@ -13,9 +13,9 @@
 //! order. A whole build for x86-64-v3 fitted the same model file byte for byte (README,
 //! Performance), and a test below holds both paths to the same bits.
 //!
-//! The crate forbids `unsafe` everywhere but here: calling a function compiled for a
-//! feature the processor may lack is `unsafe` in Rust, and this is that one call, after the
-//! check that makes it sound.
+//! The crate denies `unsafe` everywhere but here: calling a function compiled for a feature
+//! the processor may lack is `unsafe` in Rust, and this is that one function and its one
+//! call, after the check that makes it sound.
 
 /// Runs `f` through a copy compiled for AVX2 when the processor has it, else as it is.
 ///
@@ -32,10 +32,15 @@ pub fn wide<T>(f: impl FnOnce() -> T) -> T {
     f()
 }
 
-/// `f()` compiled with AVX2.
+/// `f()` compiled with AVX2. An `unsafe fn` (not a safe one, which Rust allows a
+/// `#[target_feature]` from 1.86 on) so that the crate builds with its stated 1.80.
+///
+/// # Safety
+/// The processor must have AVX2.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn avx2<T>(f: impl FnOnce() -> T) -> T {
+#[allow(unsafe_code)]
+unsafe fn avx2<T>(f: impl FnOnce() -> T) -> T {
     f()
 }
 

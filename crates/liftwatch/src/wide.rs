@@ -19,8 +19,10 @@
 
 /// Runs `f` through a copy compiled for AVX2 when the processor has it, else as it is.
 ///
-/// Only code inlined into `f` gets the wider vectors: the network's loops are
-/// `#[inline(always)]` for that reason.
+/// Only code inlined into the copy gets the wider vectors: pass `f` as an
+/// `#[inline(always)]` closure and keep what it runs `#[inline(always)]`, as the network's
+/// loops are. Anything left out of line (an iterator adapter's `fold` was, once) runs in the
+/// plain build.
 #[inline(always)]
 pub fn wide<T>(f: impl FnOnce() -> T) -> T {
     #[cfg(target_arch = "x86_64")]

@@ -149,7 +149,7 @@ impl BaselineLimits {
             / crate::stats::normal_quantile(measured);
         let limit = |v: &mut Vec<f64>| {
             v.sort_by(f64::total_cmp);
-            let q = |p: f64| v[((p * (v.len() - 1) as f64).round() as usize).min(v.len() - 1)];
+            let q = |p: f64| crate::stats::sorted_quantile(v, p);
             let q50 = q(0.5);
             let q999 = if measured < TARGET_PERCENTILE {
                 q50 + stretch * (q(measured) - q50)

@@ -92,7 +92,7 @@ use crate::mode::FaultMode;
 use crate::risk::sequential::{gaussian_llr, CLIP, N_SIZES, SIZES};
 use crate::rng::{moving_blocks, BlockStart, Rng};
 use crate::sample::Sample;
-use crate::stats::{median, robust_sigma};
+use crate::stats::{median, robust_sigma, sorted_quantile};
 
 /// A door that opens again within this long (s) of closing, the car not having moved, is
 /// reopening: a lock that failed to make, a safety edge touched, a late passenger. A new call
@@ -998,8 +998,7 @@ pub fn level_tolerance(trips: &[Trip], floors: usize, heights: &[f64]) -> f64 {
         return LEVEL_TOLERANCE_M;
     }
     misclosure.sort_by(f64::total_cmp);
-    let q99 = misclosure[(0.99 * (misclosure.len() - 1) as f64).round() as usize];
-    (LEVEL_MARGIN * q99).max(LEVEL_TOLERANCE_M)
+    (LEVEL_MARGIN * sorted_quantile(&misclosure, 0.99)).max(LEVEL_TOLERANCE_M)
 }
 
 /// Landing heights above the first from the trips' floors and distances: h\[to\] − h\[from\] =

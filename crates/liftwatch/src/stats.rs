@@ -42,6 +42,15 @@ pub fn median(xs: &[f64]) -> f64 {
     }
 }
 
+/// The `p`-quantile of `sorted` (ascending) by nearest rank: the element of rank
+/// round(p·(n − 1)); NaN for an empty slice.
+pub fn sorted_quantile(sorted: &[f64], p: f64) -> f64 {
+    match sorted.len() {
+        0 => f64::NAN,
+        n => sorted[((p * (n - 1) as f64).round() as usize).min(n - 1)],
+    }
+}
+
 /// The upper median of `v`: the element of rank ⌊n/2⌋ (the middle value, or the upper of the
 /// two middle values for an even count); NaN for an empty slice. Reorders `v` (an O(n)
 /// selection instead of a sort); values are ordered by [`f64::total_cmp`].
@@ -147,6 +156,16 @@ pub fn chi_square_quantile(p: f64, dof: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn sorted_quantiles_take_the_nearest_rank() {
+        let v: Vec<f64> = (0..101).map(f64::from).collect();
+        assert_eq!(sorted_quantile(&v, 0.99), 99.0);
+        assert_eq!(sorted_quantile(&v, 0.5), 50.0);
+        assert_eq!(sorted_quantile(&v[..10], 0.99), 9.0); // rank round(8.91) = 9
+        assert_eq!(sorted_quantile(&v[..10], 0.04), 0.0);
+        assert!(sorted_quantile(&[], 0.5).is_nan());
+    }
 
     #[test]
     fn t_quantiles_match_the_tables() {

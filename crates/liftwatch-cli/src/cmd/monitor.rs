@@ -177,11 +177,12 @@ struct Sink<'a> {
     ui: Ui,
 }
 
-/// The rows output: a file not yet started, or its CSV writer.
+/// The rows output: a file not yet started, or its CSV writer. One per run, so the writers'
+/// size (each keeps its columns' last texts, up to a KB) costs nothing worth a box.
+#[allow(clippy::large_enum_variant)]
 enum Rows {
     File(AtomicFile),
-    /// Boxed: a row writer keeps each column's last text (about 1 KB).
-    Second(Box<RowWriter<AtomicFile>>),
+    Second(RowWriter<AtomicFile>),
     Trip(TripRowWriter<AtomicFile>),
     Gone,
 }
@@ -275,9 +276,7 @@ impl SampleSink for Sink<'_> {
         self.rows = if self.per_trip {
             Rows::Trip(TripRowWriter::new(file, self.time).with_context(cannot)?)
         } else {
-            Rows::Second(Box::new(
-                RowWriter::with_time(file, self.time).with_context(cannot)?,
-            ))
+            Rows::Second(RowWriter::with_time(file, self.time).with_context(cannot)?)
         };
         self.samples = 0;
         self.skipped = 0;

@@ -130,14 +130,13 @@ impl TripSums {
     }
 }
 
-/// Appends the per-mode risk columns and the level.
-fn risks_and_level(line: &mut Vec<u8>, r: &MonitorRow) {
-    for x in [r.risk, r.risk_motor, r.risk_brake, r.risk_friction] {
-        push_fixed(line, x, 3);
-        line.push(b',');
-    }
-    line.extend_from_slice(r.level.as_str().as_bytes());
-}
+/// Decimals of r_voltage (V) and e, of r_force (N), of each risk and of the drifts (Kd %,
+/// friction %, brake drag N): the precisions of the module's table, for both layouts.
+const R_VOLTAGE_DECIMALS: usize = 3;
+const R_FORCE_DECIMALS: usize = 1;
+const E_DECIMALS: usize = 3;
+const RISK_DECIMALS: usize = 3;
+const DRIFT_DECIMALS: [usize; 3] = [3, 2, 1];
 
 /// Appends each value at its precision, each after a comma.
 fn fields(line: &mut Vec<u8>, values: &[(f64, usize)]) {
@@ -147,17 +146,40 @@ fn fields(line: &mut Vec<u8>, values: &[(f64, usize)]) {
     }
 }
 
-/// Appends the three drift columns, each after a comma, and ends the line.
-fn drifts(line: &mut Vec<u8>, r: &MonitorRow) {
-    fields(
-        line,
-        &[
-            (r.kd_drift_pct, 3),
-            (r.friction_drift_pct, 2),
-            (r.brake_drag_n, 1),
-        ],
-    );
-    line.push(b'\n');
+/// The columns both layouts end with, each keeping its last text ([`FixedColumn`]): the four
+/// risks, the level, then the three drifts.
+struct RiskColumns {
+    risks: [FixedColumn; 4],
+    drifts: [FixedColumn; 3],
+}
+
+impl RiskColumns {
+    fn new() -> Self {
+        RiskColumns {
+            risks: [RISK_DECIMALS; 4].map(FixedColumn::new),
+            drifts: DRIFT_DECIMALS.map(FixedColumn::new),
+        }
+    }
+
+    /// Appends the per-mode risk columns and the level.
+    fn risks_and_level(&mut self, line: &mut Vec<u8>, r: &MonitorRow) {
+        let values = [r.risk, r.risk_motor, r.risk_brake, r.risk_friction];
+        for (c, x) in self.risks.iter_mut().zip(values) {
+            c.push(line, x);
+            line.push(b',');
+        }
+        line.extend_from_slice(r.level.as_str().as_bytes());
+    }
+
+    /// Appends the three drift columns, each after a comma, and ends the line.
+    fn drifts(&mut self, line: &mut Vec<u8>, r: &MonitorRow) {
+        let values = [r.kd_drift_pct, r.friction_drift_pct, r.brake_drag_n];
+        for (c, x) in self.drifts.iter_mut().zip(values) {
+            line.push(b',');
+            c.push(line, x);
+        }
+        line.push(b'\n');
+    }
 }
 
 /// Writes monitor rows as CSV with [`CSV_HEADER`]; empty fields for `NaN`.
@@ -168,8 +190,9 @@ pub struct RowWriter<W: Write> {
     out: W,
     time: TimeFormat,
     line: Vec<u8>,
-    /// The ten numeric columns after the time, in order, each with its last text.
-    columns: [FixedColumn; 10],
+    /// r_voltage, r_force and e, each with its last text.
+    residuals: [FixedColumn; 3],
+    risks: RiskColumns,
 }
 
 impl<W: Write> RowWriter<W> {
@@ -191,7 +214,8 @@ impl<W: Write> RowWriter<W> {
             out,
             time,
             line: Vec::with_capacity(256),
-            columns: [3, 1, 3, 3, 3, 3, 3, 3, 2, 1].map(FixedColumn::new),
+            residuals: [R_VOLTAGE_DECIMALS, R_FORCE_DECIMALS, E_DECIMALS].map(FixedColumn::new),
+            risks: RiskColumns::new(),
         })
     }
 
@@ -203,32 +227,16 @@ impl<W: Write> RowWriter<W> {
         let line = &mut self.line;
         line.clear();
         self.time.push(line, r.time);
-        let [r_u, r_f, risk, motor, brake, friction, e, kd, fr, drag] = &mut self.columns;
+        let [r_u, r_f, e] = &mut self.residuals;
         for (c, x) in [(r_u, r.r_voltage), (r_f, r.r_force)] {
             line.push(b',');
             c.push(line, x);
         }
         line.push(b',');
-        for (c, x) in [
-            (risk, r.risk),
-            (motor, r.risk_motor),
-            (brake, r.risk_brake),
-            (friction, r.risk_friction),
-        ] {
-            c.push(line, x);
-            line.push(b',');
-        }
-        line.extend_from_slice(r.level.as_str().as_bytes());
-        for (c, x) in [
-            (e, r.e),
-            (kd, r.kd_drift_pct),
-            (fr, r.friction_drift_pct),
-            (drag, r.brake_drag_n),
-        ] {
-            line.push(b',');
-            c.push(line, x);
-        }
-        line.push(b'\n');
+        self.risks.risks_and_level(line, r);
+        line.push(b',');
+        e.push(line, r.e);
+        self.risks.drifts(line, r);
         self.out.write_all(line)
     }
 
@@ -248,6 +256,7 @@ pub struct TripRowWriter<W: Write> {
     out: W,
     time: TimeFormat,
     line: Vec<u8>,
+    risks: RiskColumns,
 }
 
 impl<W: Write> TripRowWriter<W> {
@@ -261,6 +270,7 @@ impl<W: Write> TripRowWriter<W> {
             out,
             time,
             line: Vec::with_capacity(256),
+            risks: RiskColumns::new(),
         })
     }
 
@@ -289,15 +299,19 @@ impl<W: Write> TripRowWriter<W> {
         );
         line.push(b',');
         push_u64(line, u64::from(t.samples));
-        let means = [(s.mean_r_voltage, 3), (s.mean_r_force, 1), (s.mean_e, 3)];
+        let means = [
+            (s.mean_r_voltage, R_VOLTAGE_DECIMALS),
+            (s.mean_r_force, R_FORCE_DECIMALS),
+            (s.mean_e, E_DECIMALS),
+        ];
         fields(line, &means);
         line.push(b',');
-        risks_and_level(line, r);
+        self.risks.risks_and_level(line, r);
         line.push(b',');
         if let Some(m) = s.mode {
             line.extend_from_slice(m.as_str().as_bytes());
         }
-        drifts(line, r);
+        self.risks.drifts(line, r);
         self.out.write_all(line)
     }
 

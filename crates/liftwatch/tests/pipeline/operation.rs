@@ -154,9 +154,11 @@ fn an_outage_is_dated_and_ended_and_raises_no_machine_event() {
         s.start,
         true_outage.start_s
     );
-    // Concluded within the first 90 minutes of a weekday morning, long before it ended.
+    // Concluded within the first two hours of a weekday morning, long before it ended (101
+    // min on this car; 63 while the training's silences were measured at its own rates,
+    // which made Λ_max too low: liftwatch::operation, "Why the other days' rates").
     assert!(
-        s.detected_at > s.start && s.detected_at - true_outage.start_s < 5400.0,
+        s.detected_at > s.start && s.detected_at - true_outage.start_s < 7200.0,
         "{s:?}"
     );
     assert!(

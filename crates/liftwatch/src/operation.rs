@@ -1753,28 +1753,9 @@ mod tests {
     #[test]
     fn an_hour_the_training_never_saw_takes_its_quietest_rate() {
         const DAY: f64 = 86_400.0;
-        let busy = |t: f64| (7.0..19.0).contains(&((t / 3600.0) % 24.0));
-        let mut samples = Vec::new();
-        let mut trips = Vec::new();
-        for i in 0..(3 * 86_400) {
-            let t = f64::from(i);
-            let start = busy(t) && i % 120 == 0;
-            samples.push(sample(t, if start { 1.0 } else { 0.0 }, 0.0, 1.0));
-            if start {
-                trips.push(Trip {
-                    index: trips.len() as u32,
-                    start_time: t,
-                    end_time: t + 1.0,
-                    direction: 1,
-                    from_floor: 1.0,
-                    to_floor: 2.0,
-                    load_ratio: 0.0,
-                    peak_speed: 1.0,
-                    distance_m: 3.0,
-                    samples: 1,
-                });
-            }
-        }
+        let (samples, trips) = office_log(3, |t| {
+            (7.0..19.0).contains(&((t / 3600.0) % 24.0)).then_some(120)
+        });
         let r = OperationReference::learn(&samples, &trips, 1.0, 0.05, 2, 1.0);
         assert!((r.trips_per_hour[hour_bin(DAY + 9.0 * 3600.0)] - 30.0).abs() < 1e-9);
         assert_eq!(r.trips_per_hour[hour_bin(5.0 * DAY + 9.0 * 3600.0)], 0.0);
@@ -1827,6 +1808,12 @@ mod tests {
     /// `days` of training from Monday 00:00 at step 1 s with a trip started every
     /// `every(t)` s (None: no trip in that second's hour).
     fn training(days: u32, every: impl Fn(f64) -> Option<u32>) -> OperationReference {
+        let (samples, trips) = office_log(days, every);
+        OperationReference::learn(&samples, &trips, 1.0, 0.05, 2, 1.0)
+    }
+
+    /// The samples and trips of [`training`]'s log.
+    fn office_log(days: u32, every: impl Fn(f64) -> Option<u32>) -> (Vec<Sample>, Vec<Trip>) {
         let mut samples = Vec::new();
         let mut trips = Vec::new();
         for i in 0..days * 86_400 {
@@ -1848,7 +1835,7 @@ mod tests {
                 });
             }
         }
-        OperationReference::learn(&samples, &trips, 1.0, 0.05, 2, 1.0)
+        (samples, trips)
     }
 
     /// The outages `r` reports on a day from `day` (days from the training's Monday) with

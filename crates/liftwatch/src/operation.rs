@@ -1105,23 +1105,25 @@ impl WeekCounts {
 /// quiet one.
 pub const SIMILAR_DAY_FACTOR: f64 = 2.0;
 
-/// The training days other than `day` whose trip rate is within [`SIMILAR_DAY_FACTOR`] of
-/// its `rate`; the nearest one in ratio when none is.
-fn similar_days(per_day: &BTreeMap<i64, WeekCounts>, day: i64, rate: f64) -> Vec<&WeekCounts> {
-    let ratio = |c: &WeekCounts| (c.rate() / rate).ln().abs();
-    let others = || {
-        per_day
-            .iter()
-            .filter(move |(e, _)| **e != day)
-            .map(|(_, c)| c)
-    };
-    let near: Vec<&WeekCounts> = others()
-        .filter(|c| ratio(c) <= SIMILAR_DAY_FACTOR.ln())
+/// The training days (each with its trip rate) other than `days[i]` whose trip rate is
+/// within [`SIMILAR_DAY_FACTOR`] of its own; the nearest one in ratio when none is.
+fn similar_days(days: &[(i64, f64, WeekCounts)], i: usize) -> Vec<&WeekCounts> {
+    let rate = days[i].1;
+    let others = days
+        .iter()
+        .enumerate()
+        .filter(|&(j, _)| j != i)
+        .map(|(_, (_, r, c))| ((r / rate).ln().abs(), c));
+    let near: Vec<&WeekCounts> = others
+        .clone()
+        .filter(|(ratio, _)| *ratio <= SIMILAR_DAY_FACTOR.ln())
+        .map(|(_, c)| c)
         .collect();
     if near.is_empty() {
-        others()
-            .filter(|c| ratio(c).is_finite())
-            .min_by(|a, b| ratio(a).total_cmp(&ratio(b)))
+        others
+            .filter(|(ratio, _)| ratio.is_finite())
+            .min_by(|a, b| a.0.total_cmp(&b.0))
+            .map(|(_, c)| c)
             .into_iter()
             .collect()
     } else {
@@ -1209,14 +1211,15 @@ impl OperationReference {
             level_tolerance_m: LEVEL_TOLERANCE_M,
             door: None,
         };
-        // Each day's silences are measured with the rates of the other days (module docs,
-        // "Why the other days' rates"); a day whose others do not cover every hour of the
-        // day keeps the whole training's.
-        let judges: Vec<(i64, OperationReference)> = per_day
-            .iter()
-            .map(|(d, own)| {
+        // Each day's silences are measured with the rates of the other days of like traffic
+        // (module docs, "Why the other days' rates"); a day whose others do not cover every
+        // hour of the day keeps the whole training's.
+        let days: Vec<(i64, f64, WeekCounts)> =
+            per_day.into_iter().map(|(d, c)| (d, c.rate(), c)).collect();
+        let judges: Vec<(i64, OperationReference)> = (0..days.len())
+            .map(|i| {
                 let mut others = WeekCounts::default();
-                for c in similar_days(&per_day, *d, own.rate()) {
+                for c in similar_days(&days, i) {
                     others.add(c);
                 }
                 let rates = hourly_rates(&others.hours, &others.starts, Unseen::HourOfDay);
@@ -1224,7 +1227,7 @@ impl OperationReference {
                 if rates.iter().any(|&r| r > 0.0) {
                     judge.trips_per_hour = rates;
                 }
-                (*d, judge)
+                (days[i].0, judge)
             })
             .collect();
         let mut tr = OperationTracker::new();

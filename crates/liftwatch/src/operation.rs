@@ -89,11 +89,10 @@
 //! trips, so a Sunday morning without one call for an hour (e^−4.5 at its 4.5 calls an hour)
 //! reads as 20-30 expected trips. With the training's own rates `evaluate`'s suite reported
 //! 9 outages in 3.94 elevator-years of healthy cars with week-long trainings (11 with
-//! `--seed 2`), 6 with 3-day ones, 2 on the field bench, each a car standing idle on a quiet
-//! evening or weekend; with the other days' rates none, every other figure the same. The
-//! days of like traffic:
-//! with all the other days an office's Saturday is measured at its weekdays' rates, four
-//! times its own, and the default simulated week's largest quiet Λ went from 10 to 62, so a
+//! `--seed 2`), 6 with 3-day ones (12 with `--seed 2`), 2 on the field bench, each a car
+//! standing idle on a quiet evening or weekend; with the other days' rates none, every other
+//! figure the same. The days of like traffic: with all the other days an office's Saturday
+//! is measured at its weekdays' rates, four times its own, and the default simulated week's largest quiet Λ went from 10 to 62, so a
 //! 4 h outage on a Tuesday morning was concluded after 2.9 h instead of 1 h (a shorter one
 //! not at all); with the days like it, 13 and 1.2 h. A day with no other like it takes the
 //! nearest in trip rate; a training of one day has no other and keeps its own rates.

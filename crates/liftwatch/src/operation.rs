@@ -92,9 +92,10 @@
 //! `--seed 2`), 6 with 3-day ones (12 with `--seed 2`), 2 on the field bench, each a car
 //! standing idle on a quiet evening or weekend; with the other days' rates none, every other
 //! figure the same. The days of like traffic: with all the other days an office's Saturday
-//! is measured at its weekdays' rates, four times its own, and the default simulated week's largest quiet Λ went from 10 to 62, so a
-//! 4 h outage on a Tuesday morning was concluded after 2.9 h instead of 1 h (a shorter one
-//! not at all); with the days like it, 13 and 1.2 h. A day with no other like it takes the
+//! is measured at its weekdays' rates, four times its own, and the default simulated week's
+//! largest quiet Λ went from 10 to 62, so a 4 h outage on a Tuesday morning was concluded
+//! after 2.9 h instead of 1 h (a shorter one not at all); with the days like it, 13 and
+//! 1.2 h. A day with no other like it takes the
 //! nearest in trip rate; a training of one day has no other and keeps its own rates.
 //!
 //! The door's check never touches the machine's risk: an outage or a slow door raises no
@@ -1148,7 +1149,8 @@ fn hourly_rates(
         by_day[b % 24].0 += starts[b];
         by_day[b % 24].1 += hours[b];
     }
-    let own = |b: usize| (starts[b] / hours[b]).min(by_day[b % 24].0 / by_day[b % 24].1);
+    let pooled = |b: usize| by_day[b % 24].0 / by_day[b % 24].1;
+    let own = |b: usize| (starts[b] / hours[b]).min(pooled(b));
     let quietest = (0..HOURS_PER_WEEK)
         .filter(|&b| seen(b))
         .map(own)
@@ -1161,7 +1163,7 @@ fn hourly_rates(
             } else if seen(b) {
                 own(b)
             } else if unseen == Unseen::HourOfDay {
-                by_day[b % 24].0 / by_day[b % 24].1
+                pooled(b)
             } else {
                 quietest
             }
@@ -1221,12 +1223,18 @@ impl OperationReference {
                 for c in similar_days(&days, i) {
                     others.add(c);
                 }
-                let rates = hourly_rates(&others.hours, &others.starts, Unseen::HourOfDay);
-                let mut judge = probe.clone();
-                if rates.iter().any(|&r| r > 0.0) {
-                    judge.trips_per_hour = rates;
-                }
-                (days[i].0, judge)
+                let judge = OperationReference {
+                    trips_per_hour: hourly_rates(&others.hours, &others.starts, Unseen::HourOfDay),
+                    ..probe.clone()
+                };
+                (
+                    days[i].0,
+                    if judge.checks_silence() {
+                        judge
+                    } else {
+                        probe.clone()
+                    },
+                )
             })
             .collect();
         let mut tr = OperationTracker::new();

@@ -32,7 +32,7 @@ use crate::forecast::{unit_of, Forecast, ModeForecast, When};
 use crate::ingest::time::{day_text, instant_text, is_calendar};
 use crate::mode::{FaultMode, MACHINE_MODES, N_MODES};
 use crate::monitor::MonitorState;
-use crate::operation::Outage;
+use crate::operation::{Outage, DOOR_MIN_CYCLES, DOOR_MIN_DAYS};
 use crate::risk::DriftScale;
 
 /// Hours of healthy training below which the verdict says the model is short of data: the
@@ -217,7 +217,7 @@ impl ServiceVerdict {
             ),
             "normal" => format!("Doors: normal, {figures}."),
             _ => format!(
-                "Doors: not checked (the model has no door reference; refit to learn one), cycles {}, reopenings {}.",
+                "Doors: not checked (the model has no door reference: its training had fewer than {DOOR_MIN_CYCLES} cycles or less than {DOOR_MIN_DAYS:.0} day; refit on a longer one), cycles {}, reopenings {}.",
                 secs(self.door_cycle_median_s),
                 share(self.door_reopen_rate)
             ),

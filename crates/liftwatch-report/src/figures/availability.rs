@@ -7,7 +7,9 @@
 //! door(day)         = mean duration of the day's scored cycles (≤ 120 s), reopenings / cycles
 //! ```
 
-use liftwatch::operation::{DayUsage, OperationEvent};
+use liftwatch::operation::{
+    DayUsage, OperationEvent, DOOR_MIN_CYCLES, DOOR_MIN_DAYS, STUCK_LIMIT_S,
+};
 
 use super::{num, Ctx, Section};
 use crate::plot::{colors::*, Axis, Dash, Figure, Legend, Mark, Panel};
@@ -174,16 +176,20 @@ fn text(c: &Ctx, days: &[DayUsage]) -> Vec<String> {
     let cycles: u64 = days.iter().map(|d| d.door_cycles).sum();
     let reopenings: u64 = days.iter().map(|d| d.reopenings).sum();
     let operation = c.inp.model.operation.as_ref();
+    let stuck = format!(
+        "a car stopped between landings with its door closed for {:.0} minutes",
+        STUCK_LIMIT_S / 60.0
+    );
     let what = match operation {
         Some(o) if o.checks_silence() => format!(
             "An outage is a silence through hours in which the training week travelled (at \
-             least {} trips expected by then), or a car stopped between landings with its door \
-             closed for 5 minutes.",
+             least {} trips expected by then), or {stuck}.",
             num(o.outage_expected_trips)
         ),
-        _ => "An outage is a car stopped between landings with its door closed for 5 minutes; \
-              silences are not judged, as the training did not see every hour of the day."
-            .to_string(),
+        _ => format!(
+            "An outage is {stuck}; silences are not judged, as the training did not see every \
+             hour of the day."
+        ),
     };
     let mut lines = vec![format!(
         "Availability {} % over {} days of data; {} outage{}{}{}. {what}",
@@ -217,9 +223,11 @@ fn text(c: &Ctx, days: &[DayUsage]) -> Vec<String> {
                     num(r.sigma_s)
                 ))
             ),
-            None => "The model has no door reference: its training had fewer than 200 door \
-                     cycles or less than a day, or it was fitted before the door check existed."
-                .into(),
+            None => format!(
+                "The model has no door reference: its training had fewer than \
+                 {DOOR_MIN_CYCLES} door cycles or less than {DOOR_MIN_DAYS:.0} day, or it was \
+                 fitted before the door check existed."
+            ),
         }
     ));
     lines

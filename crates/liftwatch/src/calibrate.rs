@@ -11,7 +11,8 @@
 //! heating:  β_k from r_U ≈ Σ θ_m·x_m + Σ β_k·x_heat,k on the healthy trips (risk::evidence),
 //!           the winding's τ by profile least squares over candidates (winding_time_constant);
 //!           kept when its Wald χ² ≥ HEATING_WALD, and taken out of every trip before the
-//!           steps below
+//!           steps below with the levels θ_h = θ of that regression, the signatures scaled
+//!           to the winding's present Kd (risk::evidence)
 //! sequential: θ0, s², info pooled over the healthy trips (risk::sequential)
 //!   h_mj = max(max G_mj over the same bootstrap years, ln(9·trips per year / target))
 //! ```
@@ -326,7 +327,7 @@ pub fn calibrate(
     // for the days after the training.
     let terms = heating_terms(&trips);
     let heating = identify_heating(&trips, terms, 0..0);
-    let trips = without_heating_out_of_day(&trips, terms, &heating.beta);
+    let trips = without_heating_out_of_day(&trips, terms, &heating);
     let longest = trips.iter().map(|t| t.end - t.start).fold(0.0, f64::max);
     sensor.max_trip_s = (2.0 * longest + 20.0).max(sensor.max_trip_s);
     cfg.trip_spread_u = fit_spread(trips.iter().map(|t| (t.mean_e_u, t.n)));
@@ -399,6 +400,7 @@ pub fn calibrate(
         tau_s: tau_s.clamp(MIN_WINDING_TAU_S, MAX_WINDING_TAU_S),
         beta: heating.beta,
         beta_se: heating.se,
+        levels: Some(heating.levels),
     };
     cfg.validate()?;
     Ok(Calibration {
@@ -529,6 +531,9 @@ struct HeatingFit {
     beta: [f64; N_HEAT],
     /// Standard errors of β.
     se: [f64; N_HEAT],
+    /// θ_h, the signatures' levels in the same regression ([`Winding::levels`]); zero where
+    /// β is.
+    levels: [f64; N_MODES],
     /// Residual sum of squares of the joint regression (V², sum of trip means), whether or
     /// not β passed its test: what the time constant is chosen by.
     rss: f64,
@@ -587,6 +592,7 @@ fn heating_regression(
     let mut none = HeatingFit {
         beta: [0.0; N_HEAT],
         se: [0.0; N_HEAT],
+        levels: [0.0; N_MODES],
         rss: f64::INFINITY,
     };
     // Row i of the design: the signatures, then the basis terms.
@@ -674,6 +680,7 @@ fn heating_regression(
             none.beta[p] = beta[l];
             none.se[p] = v.get(l, l).max(0.0).sqrt();
         }
+        none.levels = [theta[0], theta[1], theta[2]];
     }
     none
 }
@@ -721,13 +728,17 @@ pub fn winding_time_constant(
     (tau, trips)
 }
 
-/// `trips` with the heating taken out, each calendar day's with β identified on the other
-/// days ([`identify_heating`]); a training of one day, or a day whose complement does not
-/// show the heating, uses `all` (the β of the whole training).
+/// `trips` with the heating and the healthy levels taken out and the signatures following
+/// the winding: each calendar day's heating with β identified on the other days
+/// ([`identify_heating`]), a training of one day, or a day whose complement does not show the
+/// heating, with `all`'s (the fit of the whole training); the levels θ_h always `all`'s. A
+/// day's level measured against the other days' would count the reference's own error twice:
+/// the decision adds it as θ0's error ([`SequentialConfig::reference`]), and on 3-day
+/// trainings the brake's healthy spread rose by a third and its thresholds by half.
 fn without_heating_out_of_day(
     trips: &[TripEvidence],
     terms: &[usize],
-    all: &[f64; N_HEAT],
+    all: &HeatingFit,
 ) -> Vec<TripEvidence> {
     let day = |t: &TripEvidence| (t.start / DAY_S).floor();
     let mut out = Vec::with_capacity(trips.len());
@@ -736,15 +747,19 @@ fn without_heating_out_of_day(
         let d = day(&trips[i]);
         let end = i + trips[i..].iter().take_while(|t| day(t) == d).count();
         let others = trips.len() - (end - i);
-        let beta = if all.iter().all(|b| *b == 0.0) || others < MIN_HEALTHY_TRIPS {
+        let fit = if all.beta.iter().all(|b| *b == 0.0) || others < MIN_HEALTHY_TRIPS {
             *all
         } else {
-            match identify_heating(trips, terms, i..end).beta {
-                b if b.iter().any(|v| *v != 0.0) => b,
+            match identify_heating(trips, terms, i..end) {
+                f if f.beta.iter().any(|v| *v != 0.0) => f,
                 _ => *all,
             }
         };
-        out.extend(trips[i..end].iter().map(|t| t.without_heating(&beta)));
+        out.extend(
+            trips[i..end]
+                .iter()
+                .map(|t| t.without_heating(&fit.beta, Some(&all.levels))),
+        );
         i = end;
     }
     out
@@ -1295,7 +1310,7 @@ mod tests {
         let mut tr = RiskTracker::new(cfg);
         trips
             .iter()
-            .map(|t| tr.push(cfg, &t.without_heating(&cfg.winding.beta)))
+            .map(|t| tr.push(cfg, &cfg.winding.take_out(t)))
             .collect()
     }
 
@@ -1448,6 +1463,85 @@ mod tests {
         assert!(
             seq_max < 1.0,
             "a new busy hour's level crossed the motor CUSUM: G/h = {seq_max}"
+        );
+    }
+
+    #[test]
+    fn a_motor_fault_reads_as_a_change_of_the_kd_the_winding_has() {
+        // Kd +20 % on a winding that swings with its load (the lag, β = 4) and with the day
+        // (±3 %): the fault's voltage passes through the Kd of the moment. Read against the
+        // winding's present Kd, the trips of a warm winding and of a cool one give the same
+        // drift; read against the fit's, each gives the step times its thermal factor.
+        let m = test_model();
+        let (beta, step, onset) = (4.0, 0.2, 10.0 * DAY_S);
+        let heated = |seed: u64, days: f64, fault: crate::risk::tests::Injection| {
+            crate::risk::tests::heated_trips(&m, seed, days, 0.0, fault, beta, 2700.0)
+        };
+        let healthy = heated(11, 8.0, &|_, _| 0.0);
+        let settings = CalibrationSettings {
+            years: 5.0,
+            ..CalibrationSettings::default()
+        };
+        let cfg = calibrate(&healthy, 2700.0, &NO_FIT_ERROR, &settings)
+            .expect("calibrates")
+            .risk;
+        let w = cfg.winding;
+        assert!(w.levels.is_some(), "{w:?}");
+        let month = heated(12, 20.0, &|t, x| {
+            if t >= onset {
+                step * x[MOTOR]
+            } else {
+                0.0
+            }
+        });
+        let after: Vec<&TripEvidence> = month.iter().filter(|t| t.start >= onset).collect();
+        // The warm and the cool half of the trips by their thermal factor 1 + Σ β_k·b̄_k.
+        let warmth =
+            |t: &TripEvidence| -> f64 { (0..N_HEAT).map(|k| w.beta[k] * t.thermal.b[k]).sum() };
+        let mut by_warmth: Vec<f64> = after.iter().map(|t| warmth(t)).collect();
+        by_warmth.sort_by(f64::total_cmp);
+        let median = by_warmth[by_warmth.len() / 2];
+        let theta0 = cfg.sequential.as_ref().expect("a reference").theta0[MOTOR];
+        // The motor coefficient of a half alone (pooled trip means), less the healthy θ0.
+        let drift = |winding: &Winding, warm: bool| -> f64 {
+            let (mut xr, mut xx) = (0.0, 0.0);
+            for t in after.iter().filter(|t| (warmth(t) > median) == warm) {
+                let t = winding.take_out(t);
+                xr += t.xtr[MOTOR];
+                xx += t.xtx[PACKED_DIAG[MOTOR]];
+            }
+            xr / xx - theta0
+        };
+        let present = (drift(&w, true), drift(&w, false));
+        let fit_kd = Winding { levels: None, ..w };
+        let fits = (drift(&fit_kd, true), drift(&fit_kd, false));
+        println!(
+            "present Kd: warm {:.4}, cool {:.4}; the fit's: warm {:.4}, cool {:.4}",
+            present.0, present.1, fits.0, fits.1
+        );
+        assert!(
+            (present.0 - present.1).abs() < 0.002,
+            "against the present Kd, warm {:.4} and cool {:.4} differ",
+            present.0,
+            present.1
+        );
+        assert!((present.0 - step).abs() < 0.005 && (present.1 - step).abs() < 0.005);
+        assert!(
+            fits.0 - fits.1 > 0.005,
+            "the winding swung too little to test: warm {:.4}, cool {:.4}",
+            fits.0,
+            fits.1
+        );
+        // And the decision, at its first crossing, reads the step within its error.
+        let a = run(&cfg, &month);
+        let i = first_decided(&a, &month, onset, |d| d.mode == FaultMode::Motor)
+            .expect("the step is decided, named motor");
+        let d = &a[i].decision;
+        assert!(
+            (d.drift[MOTOR] - step).abs() < 2.0 * d.drift_se[MOTOR],
+            "Kd drift {:.4} ± {:.4}, true {step}",
+            d.drift[MOTOR],
+            d.drift_se[MOTOR]
         );
     }
 
@@ -1606,7 +1700,7 @@ mod tests {
         let (mut full, mut levels) = (RiskTracker::new(&cfg), RiskTracker::new(&cfg));
         let mut crossed = false;
         for t in &trips {
-            let t = t.without_heating(&cfg.winding.beta);
+            let t = cfg.winding.take_out(t);
             let a = full.push(&cfg, &t);
             let l = levels.push_levels(&cfg, &t);
             crossed |= a.decision.ratio >= 1.0;

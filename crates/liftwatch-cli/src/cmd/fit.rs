@@ -259,10 +259,10 @@ pub fn summary(m: &fit::FittedModel, trips: usize, seconds: f64) -> String {
     } else {
         "no daily swing shown".to_string()
     };
-    let taken = if w.identified() {
-        "taken out of every trip"
-    } else {
-        "taken as none"
+    let taken = match (w.identified(), w.levels.is_some()) {
+        (true, true) => "taken out of every trip, drifts read at the winding's present Kd",
+        (true, false) => "taken out of every trip",
+        (false, _) => "taken as none",
     };
     let _ = writeln!(s, "winding: {heating}; {daily}; {taken}");
     if let Some(op) = &m.operation {

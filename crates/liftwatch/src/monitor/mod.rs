@@ -640,7 +640,7 @@ impl Monitor {
             return;
         };
         // The risk stage and the drift history see the trip without the winding's heating.
-        let ev = ev.without_heating(&self.model.risk.winding.beta);
+        let ev = self.model.risk.winding.take_out(&ev);
         if st.operation.serving_backlog(t.start_time) {
             // Just back from an outage (or the rescue run of a stuck car): not machine
             // evidence, as crate::operation::OUTAGE_BACKLOG_S says why.

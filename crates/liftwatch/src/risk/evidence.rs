@@ -31,6 +31,22 @@
 //! ([`crate::calibrate`]) and taken out of every trip before any decision
 //! ([`TripEvidence::without_heating`]): a busy hour warms the winding and raises Kd by a few
 //! per cent, and a motor signature that does not know it sees a fault in the morning rush.
+//!
+//! ```text
+//! the signatures at the winding's present Kd (models calibrated with the levels θ_h):
+//!   k = 1 + θ_h,motor + Σ β_k·b̄_k          b̄: the trip's mean basis; θ_h: the signatures'
+//!                                        healthy levels in the regression that found β
+//!   r_U → r_U − Σ β_k·x_heat,k − Σ θ_h,m·x_m,   x_m → k·x_m
+//! ```
+//!
+//! A degradation's voltage passes through the Kd the winding has at that moment: a Kd step of
+//! +25 % is +25 % of a cool winding's Kd at night and of a warm one's at noon, and a drag force
+//! is multiplied by either. Against the fit's Kd (the training's mean winding) the field-like
+//! evaluation's +25 % steps read +22.5 to +23.1 % at a night-time first advisory, 2.7
+//! standard errors short; against the present Kd, +23.5 to +24.7 %. The healthy levels go
+//! out with the heating because a level left in the residual would be divided by k and
+//! wander with the winding: scaling without taking them out named fewer brakes on every
+//! suite and raised a false `friction` advisory with week-long trainings.
 
 use serde::{Deserialize, Serialize};
 
@@ -100,6 +116,10 @@ pub struct HeatEvidence {
     pub hh: [[f64; N_HEAT]; N_HEAT],
     /// Mean of x_heat,k·r_U (V²).
     pub hr: [f64; N_HEAT],
+    /// b̄: mean of the basis b_k over the trip's moving samples (1); zero in evidence written
+    /// before it was kept.
+    #[serde(default)]
+    pub b: [f64; N_HEAT],
 }
 
 impl TripEvidence {
@@ -109,10 +129,17 @@ impl TripEvidence {
     }
 
     /// The trip with the healthy heating of the winding taken out of its residual:
-    /// r_U − Σ β_k·x_heat,k in every sum over r_U (β = 0 leaves it as it is).
-    pub fn without_heating(&self, beta: &[f64; N_HEAT]) -> TripEvidence {
+    /// r_U − Σ β_k·x_heat,k in every sum over r_U; and, when the healthy `levels` θ_h of the
+    /// signatures are given ([`Winding::levels`]), those taken out too, r_U − Σ θ_h,m·x_m,
+    /// and every signature made the winding's present Kd, k·x with k = 1 + θ_h,motor +
+    /// Σ β_k·b_k. β = 0 without levels leaves the trip as it is.
+    pub fn without_heating(
+        &self,
+        beta: &[f64; N_HEAT],
+        levels: Option<&[f64; N_MODES]>,
+    ) -> TripEvidence {
         let mut t = self.clone();
-        if beta.iter().all(|b| *b == 0.0) {
+        if beta.iter().all(|b| *b == 0.0) && levels.is_none() {
             return t;
         }
         let h = &self.thermal;
@@ -129,7 +156,42 @@ impl TripEvidence {
             }
         }
         t.rr = rr.max(0.0);
+        if let Some(levels) = levels {
+            t.follow_the_winding(beta, levels);
+        }
         t
+    }
+
+    /// Takes the healthy levels θ_h out of the residual, then scales every signature by the
+    /// winding's present Kd over the fit's, the trip's k = 1 + θ_h,motor + Σ β_k·b̄_k (b̄ its
+    /// mean basis): x → k·x in every sum that holds one. The residual's sums must already
+    /// have the heating taken out. k is taken constant within a trip: the lag moves by a
+    /// trip's length over τ (under 1 % of its range for a half-minute trip and τ of 45 min),
+    /// the ambient cycle by less.
+    fn follow_the_winding(&mut self, beta: &[f64; N_HEAT], levels: &[f64; N_MODES]) {
+        let xtx = unpack(&self.xtx);
+        let along =
+            |row: &[f64; N_MODES]| -> f64 { (0..N_MODES).map(|m| levels[m] * row[m]).sum() };
+        let moved = xtx.map(|row| along(&row));
+        self.rr = (self.rr - 2.0 * along(&self.xtr) + along(&moved)).max(0.0);
+        for i in 0..N_MODES {
+            self.xtr[i] -= moved[i];
+        }
+        for k in 0..N_HEAT {
+            self.thermal.hr[k] -= along(&self.thermal.xh[k]);
+        }
+        self.load.lr -= along(&self.load.xm);
+        let k = 1.0
+            + levels[MOTOR]
+            + (0..N_HEAT)
+                .map(|l| beta[l] * self.thermal.b[l])
+                .sum::<f64>();
+        self.xtx = self.xtx.map(|v| k * k * v);
+        self.xtr = self.xtr.map(|v| k * v);
+        self.load.xm = self.load.xm.map(|v| k * v);
+        for row in &mut self.thermal.xh {
+            *row = row.map(|v| k * v);
+        }
     }
 
     /// Mean squared regression residual of the trip for coefficients θ (V²).
@@ -248,6 +310,14 @@ pub struct Winding {
     pub beta: [f64; N_HEAT],
     /// Standard errors of β on the training (1); 0 when β was not identified.
     pub beta_se: [f64; N_HEAT],
+    /// θ_h: the signatures' healthy levels in the joint regression that identified β. Given,
+    /// they are taken out of every trip beside the heating, and every signature is scaled by
+    /// the winding's present Kd over the fit's, k = 1 + θ_h,motor + Σ β_k·b_k
+    /// ([`TripEvidence::without_heating`], the module's notes): a motor coefficient is then a
+    /// relative change of the Kd the winding has, a drag or friction coefficient a force.
+    /// `None` in models calibrated before they were kept, whose thresholds expect the fit's Kd.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub levels: Option<[f64; N_MODES]>,
 }
 
 impl Default for Winding {
@@ -256,6 +326,7 @@ impl Default for Winding {
             tau_s: DEFAULT_WINDING_TAU_S,
             beta: [0.0; N_HEAT],
             beta_se: [0.0; N_HEAT],
+            levels: None,
         }
     }
 }
@@ -272,6 +343,13 @@ impl Winding {
         let (c, s) = (self.beta[HEAT_LAG + 1], self.beta[HEAT_LAG + 2]);
         let hour = s.atan2(c).rem_euclid(std::f64::consts::TAU) / std::f64::consts::TAU * 24.0;
         (c.hypot(s), hour)
+    }
+
+    /// `trip` with the winding's healthy heating taken out and, where this winding keeps the
+    /// signatures' healthy levels, those too and the signatures read at the winding's present
+    /// Kd ([`TripEvidence::without_heating`]).
+    pub fn take_out(&self, trip: &TripEvidence) -> TripEvidence {
+        trip.without_heating(&self.beta, self.levels.as_ref())
     }
 
     /// True when the training showed any of it.
@@ -509,6 +587,7 @@ impl TripAccumulator {
             }
         }
         for (l, xl) in x_heat.iter().enumerate() {
+            self.thermal.b[l] += heating[l];
             for i in 0..N_MODES {
                 self.thermal.xh[l][i] += w * sig[i] * xl;
             }
@@ -566,6 +645,7 @@ impl TripAccumulator {
                 xh: a.thermal.xh.map(|row| row.map(|v| v / n)),
                 hh: a.thermal.hh.map(|row| row.map(|v| v / n)),
                 hr: a.thermal.hr.map(|v| v / n),
+                b: a.thermal.b.map(|v| v / n),
             },
             load: LoadEvidence {
                 xm: a.load.xm.map(|v| v / n),

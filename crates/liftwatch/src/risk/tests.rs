@@ -12,7 +12,8 @@ use crate::rng::Rng;
 pub(crate) type Injection<'a> = &'a dyn Fn(f64, &[f64; N_MODES]) -> f64;
 
 /// Synthetic trips: S-shaped speed profile, random load and direction, white noise of
-/// σ_U on the voltage, a daily ±3 % swing of Kd (thermal), plus `fault(t, signature)`.
+/// σ_U on the voltage, a daily ±3 % swing of Kd (thermal), plus `fault(t, signature)`, the
+/// signatures at the Kd of that moment (the swing included).
 pub(crate) fn synthetic_trips(
     model: &HybridModel,
     seed: u64,
@@ -128,8 +129,11 @@ fn trips_of(
                 time,
             );
             let daily = 0.03 * (2.0 * std::f64::consts::PI * time / 86_400.0).sin();
-            let thermal = (daily + beta * winding.0) * sig[MOTOR];
-            x.voltage += thermal + fault(time, &sig) + sigma * rng.normal();
+            let warm = daily + beta * winding.0;
+            // A fault's voltage passes through the Kd the winding has now, as the healthy
+            // force's does.
+            let present = sig.map(|x| (1.0 + warm) * x);
+            x.voltage += warm * sig[MOTOR] + fault(time, &present) + sigma * rng.normal();
             x.lambda += load_offset(time);
             let p = model.predict(&x);
             let r = Residuals::from_prediction(model, &x, &p);

@@ -285,7 +285,7 @@ impl RiskTracker {
     }
 
     /// Takes one trip of machine evidence (callers pass only plausible trips, with the
-    /// winding's heating taken out: [`TripEvidence::without_heating`]) and returns the
+    /// winding's heating taken out: [`Winding::take_out`](super::Winding::take_out)) and returns the
     /// updated assessment.
     pub fn push(&mut self, cfg: &RiskConfig, t: &TripEvidence) -> TripAssessment {
         if !t.usable(cfg) {

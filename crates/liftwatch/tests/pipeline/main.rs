@@ -7,6 +7,7 @@ mod forecast;
 mod layers;
 mod monitor;
 mod operation;
+mod paper;
 mod sim;
 mod tester;
 

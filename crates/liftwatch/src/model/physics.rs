@@ -67,6 +67,25 @@ impl PhysParams {
     pub const SIGNED: [bool; N_PHYS] =
         [true, false, false, false, false, false, false, false, true];
 
+    /// The values that motion with standstill determines through the voltage (README,
+    /// *Identifiability*), named: Δm, M0, Kd, U0, α_down and the back-EMF combinations
+    /// Ke + Kd·c going up and Ke + α_down·Kd·c going down. Ke and c alone part only through
+    /// α_down ≠ 1, and F_c is a small difference of two large constants (Δm·g ± F_c).
+    pub fn determined(&self) -> [(&'static str, f64); 7] {
+        [
+            ("delta_m", self.delta_m),
+            ("m0", self.m0),
+            ("kd", self.kd),
+            ("u0", self.u0),
+            ("alpha_down", self.alpha_down),
+            ("ke + kd*c_visc", self.ke + self.kd * self.c_visc),
+            (
+                "ke + alpha_down*kd*c_visc",
+                self.ke + self.alpha_down * self.kd * self.c_visc,
+            ),
+        ]
+    }
+
     /// The parameters as an array in the order of [`PhysParams::NAMES`].
     pub fn to_array(&self) -> [f64; N_PHYS] {
         [

@@ -7,13 +7,11 @@
 //! a full car's acceleration through the wrong mass.
 
 use liftwatch::alarm::Level;
-use liftwatch::fit::fit;
 use liftwatch::mode::FaultMode;
-use liftwatch::model::TrainConfig;
 use liftwatch::monitor::Method;
 use liftwatch::rng::Rng;
 use liftwatch::sim::{simulate, DriveAtRest, Ramp, Scenario, SimConfig, SimElevator};
-use liftwatch::{AlignedSeries, Elevator, Sample};
+use liftwatch::{Elevator, Sample};
 
 const DAY: f64 = 86_400.0;
 
@@ -41,20 +39,11 @@ fn a_drive_off_at_rest_with_a_constant_k_cell_keeps_its_parameters_and_its_quiet
     plant.drive_at_rest = DriveAtRest::Off { idle_v: 0.3 };
     plant.load_cell_load_gain = 0.0;
     let truth = plant.true_params();
-    let series = AlignedSeries {
-        step_s: 1.0,
-        samples: telemetry(&plant, 0.0, 3.0, 82, Scenario::healthy()),
-    };
-    let out = fit(
-        &series,
+    let out = crate::fitted(
+        telemetry(&plant, 0.0, 3.0, 82, Scenario::healthy()),
         &e,
-        &TrainConfig {
-            log_every: 0,
-            ..TrainConfig::default()
-        },
-        &mut |_| {},
-    )
-    .expect("three days fit");
+        "three days",
+    );
     let m = &out.model;
     let p = m.hybrid.parameters;
     let se = |name: &str| {

@@ -13,6 +13,24 @@ mod tester;
 
 use std::path::PathBuf;
 
+use liftwatch::fit::{fit, FitOutcome};
+use liftwatch::model::TrainConfig;
+use liftwatch::{AlignedSeries, Elevator, Sample};
+
+/// The default fit of 1 Hz `samples` of `e`, without progress lines; `what` names the data
+/// in the panic of a fit that fails.
+pub(crate) fn fitted(samples: Vec<Sample>, e: &Elevator, what: &str) -> FitOutcome {
+    let series = AlignedSeries {
+        step_s: 1.0,
+        samples,
+    };
+    let cfg = TrainConfig {
+        log_every: 0,
+        ..TrainConfig::default()
+    };
+    fit(&series, e, &cfg, &mut |_| {}).unwrap_or_else(|err| panic!("{what} fit: {err}"))
+}
+
 /// A fresh directory for one test, removed at the end.
 pub(crate) struct Dir(pub(crate) PathBuf);
 

@@ -104,24 +104,12 @@ fn paper_exact_data_give_the_identifiable_parameters_back_within_2_percent() {
     let fit = train(&obs, &e, &cfg, &mut |_| {}).unwrap();
     let p = fit.parameters;
     let rel = |a: f64, b: f64| (a - b).abs() / b.abs();
-    for (name, got, want) in [
-        ("u0", p.u0, t.u0),
-        ("kd", p.kd, t.kd),
-        ("alpha_down", p.alpha_down, t.alpha_down),
-        ("m0", p.m0, t.m0),
-        ("delta_m", p.delta_m, t.delta_m),
-        (
-            "ke + kd c (up)",
-            p.ke + p.kd * p.c_visc,
-            t.ke + t.kd * t.c_visc,
-        ),
-        (
-            "ke + α kd c (down)",
-            p.ke + p.alpha_down * p.kd * p.c_visc,
-            t.ke + t.alpha_down * t.kd * t.c_visc,
-        ),
-        ("m_rope", p.m_rope, t.m_rope),
-    ] {
+    let m_rope = [("m_rope", p.m_rope, t.m_rope)];
+    let determined = p.determined().into_iter().zip(t.determined());
+    for (name, got, want) in determined
+        .map(|((name, got), (_, want))| (name, got, want))
+        .chain(m_rope)
+    {
         assert!(
             rel(got, want) < 0.02,
             "{name}: got {got}, want {want} ({:.2} %)",

@@ -224,19 +224,37 @@ impl Read for Spool {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
-    fn scratch(name: &str) -> PathBuf {
-        let dir = std::env::temp_dir().join(format!("lw-input-{}-{name}", std::process::id()));
+    /// A fresh directory for one test, `lw-test-<pid>-<name>` under the system's temporary
+    /// directory, removed with everything in it when the test ends (pass or fail). Names are
+    /// unique across the crate's tests, which share one process.
+    pub(crate) struct Scratch(PathBuf);
+
+    impl std::ops::Deref for Scratch {
+        type Target = Path;
+        fn deref(&self) -> &Path {
+            &self.0
+        }
+    }
+
+    impl Drop for Scratch {
+        fn drop(&mut self) {
+            let _ = std::fs::remove_dir_all(&self.0);
+        }
+    }
+
+    pub(crate) fn scratch(name: &str) -> Scratch {
+        let dir = std::env::temp_dir().join(format!("lw-test-{}-{name}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
         std::fs::create_dir_all(&dir).unwrap();
-        dir
+        Scratch(dir)
     }
 
     #[test]
     fn a_gzip_file_reads_and_rewinds_to_its_text() {
-        let dir = scratch("gz");
+        let dir = scratch("input-gz");
         let path = dir.join("raw.csv.gz");
         let text = b"time,signal,value\n0,speed,0\n1,speed,1\n";
         let mut enc = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::default());
@@ -255,7 +273,7 @@ mod tests {
 
     #[test]
     fn a_zstd_file_of_two_frames_reads_and_rewinds_to_its_text() {
-        let dir = scratch("zst");
+        let dir = scratch("input-zst");
         let path = dir.join("raw.csv.zst");
         let (a, b) = (&b"time,signal,value\n0,speed,0\n"[..], &b"1,speed,1\n"[..]);
         let mut bytes = zstd::encode_all(a, 3).unwrap();

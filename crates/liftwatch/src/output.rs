@@ -566,13 +566,7 @@ fn sync_dir(target: &Path) {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn scratch(name: &str) -> PathBuf {
-        let dir = std::env::temp_dir().join(format!("lw-output-{}-{name}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
-        std::fs::create_dir_all(&dir).unwrap();
-        dir
-    }
+    use crate::input::tests::scratch;
 
     fn entries(dir: &Path) -> Vec<String> {
         let mut v: Vec<String> = std::fs::read_dir(dir)
@@ -585,7 +579,7 @@ mod tests {
 
     #[test]
     fn an_abandoned_write_leaves_the_old_content_and_no_temp_file() {
-        let dir = scratch("abandon");
+        let dir = scratch("output-abandon");
         let path = dir.join("out.csv");
         std::fs::write(&path, "old").unwrap();
         {
@@ -601,7 +595,7 @@ mod tests {
 
     #[test]
     fn a_restart_forgets_what_was_written() {
-        let dir = scratch("restart");
+        let dir = scratch("output-restart");
         let path = dir.join("rows.csv");
         let mut f = AtomicFile::create(&path).unwrap();
         f.write_all(b"first attempt, longer\n").unwrap();
@@ -615,7 +609,7 @@ mod tests {
 
     #[test]
     fn temp_files_of_dead_processes_are_swept_and_live_ones_kept() {
-        let dir = scratch("sweep");
+        let dir = scratch("output-sweep");
         let path = dir.join("risk.csv");
         // pid 0 is never a user process; this process is alive.
         std::fs::write(dir.join(".risk.csv.0.3.tmp"), "left by a kill").unwrap();
@@ -632,7 +626,7 @@ mod tests {
 
     #[test]
     fn a_symlink_is_followed_not_replaced() {
-        let dir = scratch("link");
+        let dir = scratch("output-link");
         let real = dir.join("real.json");
         std::fs::write(&real, "old").unwrap();
         let link = dir.join("link.json");
@@ -647,7 +641,7 @@ mod tests {
 
     #[test]
     fn an_output_naming_an_input_or_another_output_is_refused() {
-        let dir = scratch("distinct");
+        let dir = scratch("output-distinct");
         let input = dir.join("in.csv");
         std::fs::write(&input, "x").unwrap();
         let arg = |flag, path, output| FileArg { flag, path, output };
@@ -673,7 +667,7 @@ mod tests {
 
     #[test]
     fn a_directory_appears_whole_or_keeps_its_old_files() {
-        let dir = scratch("dir");
+        let dir = scratch("output-dir");
         let target = dir.join("report");
         {
             let d = AtomicDir::create(&target).unwrap();
@@ -706,7 +700,7 @@ mod tests {
     #[test]
     fn a_gz_data_file_is_compressed_even_after_a_restart() {
         use std::io::Read;
-        let dir = scratch("gz");
+        let dir = scratch("output-gz");
         let path = dir.join("rows.csv.gz");
         let mut f = AtomicFile::create_data(&path).unwrap();
         f.write_all(b"first attempt\n").unwrap();

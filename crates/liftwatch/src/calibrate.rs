@@ -680,7 +680,7 @@ fn heating_regression(
             none.beta[p] = beta[l];
             none.se[p] = v.get(l, l).max(0.0).sqrt();
         }
-        none.levels = [theta[0], theta[1], theta[2]];
+        none.levels = std::array::from_fn(|m| theta[m]);
     }
     none
 }
@@ -1496,8 +1496,7 @@ mod tests {
         });
         let after: Vec<&TripEvidence> = month.iter().filter(|t| t.start >= onset).collect();
         // The warm and the cool half of the trips by their thermal factor 1 + Σ β_k·b̄_k.
-        let warmth =
-            |t: &TripEvidence| -> f64 { (0..N_HEAT).map(|k| w.beta[k] * t.thermal.b[k]).sum() };
+        let warmth = |t: &TripEvidence| t.thermal.warmth(&w.beta);
         let mut by_warmth: Vec<f64> = after.iter().map(|t| warmth(t)).collect();
         by_warmth.sort_by(f64::total_cmp);
         let median = by_warmth[by_warmth.len() / 2];

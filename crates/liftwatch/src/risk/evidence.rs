@@ -122,6 +122,13 @@ pub struct HeatEvidence {
     pub b: [f64; N_HEAT],
 }
 
+impl HeatEvidence {
+    /// Σ β_k·b̄_k: the relative rise of Kd the heating β gives the trip's mean basis.
+    pub fn warmth(&self, beta: &[f64; N_HEAT]) -> f64 {
+        beta.iter().zip(&self.b).map(|(beta, b)| beta * b).sum()
+    }
+}
+
 impl TripEvidence {
     /// True when the trip counts as machine evidence.
     pub fn usable(&self, cfg: &RiskConfig) -> bool {
@@ -181,11 +188,7 @@ impl TripEvidence {
             self.thermal.hr[k] -= along(&self.thermal.xh[k]);
         }
         self.load.lr -= along(&self.load.xm);
-        let k = 1.0
-            + levels[MOTOR]
-            + (0..N_HEAT)
-                .map(|l| beta[l] * self.thermal.b[l])
-                .sum::<f64>();
+        let k = 1.0 + levels[MOTOR] + self.thermal.warmth(beta);
         self.xtx = self.xtx.map(|v| k * k * v);
         self.xtr = self.xtr.map(|v| k * v);
         self.load.xm = self.load.xm.map(|v| k * v);

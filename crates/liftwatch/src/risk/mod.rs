@@ -317,6 +317,9 @@ impl RiskConfig {
             range("risk.winding.beta_se", w.beta_se[k], 0.0, 1e3)?;
         }
         range("risk.winding.beta", w.steady_rise(), 0.0, MAX_HEATING)?;
+        for level in w.levels.iter().flatten() {
+            range("risk.winding.levels", *level, -MAX_COEF, MAX_COEF)?;
+        }
         range("risk.dominance", self.dominance, 1.0, 1e3)?;
         if let Some(seq) = &self.sequential {
             seq.validate().map_err(|why| Error::InvalidConfig {

@@ -306,3 +306,16 @@ fn each_signature_alone_reads_its_projection_of_an_offset() {
         );
     }
 }
+
+#[test]
+fn a_model_files_winding_levels_are_checked() {
+    let mut cfg = RiskConfig::default();
+    cfg.validate().expect("the default settings are valid");
+    cfg.winding.levels = Some([-0.09, 0.02, 0.0]);
+    cfg.validate().expect("a fitted level is valid");
+    for bad in [f64::NAN, f64::INFINITY, 1e4] {
+        cfg.winding.levels = Some([0.0, bad, 0.0]);
+        let err = cfg.validate().expect_err("a level out of range is refused");
+        assert!(err.to_string().contains("risk.winding.levels"), "{err}");
+    }
+}

@@ -21,8 +21,9 @@ const MOSQUITTO: &str = "/usr/sbin/mosquitto";
 const MOSQUITTO_PASSWD: &str = "/usr/bin/mosquitto_passwd";
 const MOSQUITTO_SUB: &str = "/usr/bin/mosquitto_sub";
 
-/// Starts Mosquitto on `port`, loopback only, with two logins: the service and a gateway.
-fn broker(dir: &Dir, port: u16) -> Killed {
+/// Starts Mosquitto on a free loopback port, which it returns, with two logins: the service
+/// and a gateway.
+fn broker(dir: &Dir) -> (Killed, u16) {
     let pw = dir.path("passwords");
     for (i, (user, pass)) in [("svc", "svc-pw"), ("gw", "gw-pw")].iter().enumerate() {
         let create: &[&str] = if i == 0 { &["-c"] } else { &[] };
@@ -33,26 +34,40 @@ fn broker(dir: &Dir, port: u16) -> Killed {
             .expect("mosquitto_passwd runs");
         assert!(st.success());
     }
-    let conf = dir.file(
-        "mosquitto.conf",
-        format!(
-            "listener {port} 127.0.0.1\nallow_anonymous false\npassword_file {}\npersistence false\n",
-            pw.display()
-        )
-        .as_bytes(),
-    );
-    let child = Command::new(MOSQUITTO)
-        .args(["-c", conf.to_str().unwrap()])
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .expect("mosquitto starts");
-    let t0 = Instant::now();
-    while std::net::TcpStream::connect(("127.0.0.1", port)).is_err() {
-        assert!(t0.elapsed() < PATIENCE, "mosquitto did not listen");
-        std::thread::sleep(Duration::from_millis(50));
+    // A port that `free_port` found free can be taken by another process's connection before
+    // mosquitto binds it; mosquitto then exits, and a fresh port is the remedy (3 tries).
+    for attempt in 0..3 {
+        let port = free_port();
+        let conf = dir.file(
+            &format!("mosquitto-{attempt}.conf"),
+            format!(
+                "listener {port} 127.0.0.1\nallow_anonymous false\npassword_file {}\npersistence false\n",
+                pw.display()
+            )
+            .as_bytes(),
+        );
+        let mut child = Killed(
+            Command::new(MOSQUITTO)
+                .args(["-c", conf.to_str().unwrap()])
+                .stdout(Stdio::null())
+                .stderr(Stdio::null())
+                .spawn()
+                .expect("mosquitto starts"),
+        );
+        let t0 = Instant::now();
+        loop {
+            if let Ok(Some(status)) = child.0.try_wait() {
+                eprintln!("mosquitto on port {port} exited ({status}); again on another");
+                break;
+            }
+            if std::net::TcpStream::connect(("127.0.0.1", port)).is_ok() {
+                return (child, port);
+            }
+            assert!(t0.elapsed() < PATIENCE, "mosquitto did not listen");
+            std::thread::sleep(Duration::from_millis(50));
+        }
     }
-    Killed(child)
+    panic!("mosquitto did not start in 3 tries");
 }
 
 #[test]
@@ -92,8 +107,7 @@ fn telemetry_through_a_broker_gives_the_rows_of_a_batch_run_and_events_come_out(
         .collect();
     assert!(!want_events.is_empty(), "the scenario raises events");
 
-    let port = free_port();
-    let _broker = broker(&dir, port);
+    let (_broker, port) = broker(&dir);
     let url = |login: &str| format!("mqtt://{login}@127.0.0.1:{port}");
     let server = Server::start_with(
         &dir.path("data"),

@@ -24,21 +24,64 @@ use serde_json::Value;
 /// Debian's nats-server.
 const NATS_SERVER: &str = "/usr/sbin/nats-server";
 
+/// How long a nats-server may take to say it is ready (and, clustered, to elect the JetStream
+/// metadata leader): well under a second here, so this only bounds a broken start.
+const STARTUP: Duration = Duration::from_secs(20);
+
+/// Whole clusters started before a case gives up. A port that [`free_port`] found free is
+/// closed again before the server binds it, and in that gap another process's connection can
+/// take it as its local port; the server then exits ("address already in use") and a cluster
+/// of 3 has 2 JetStream peers, too few for 3 replicas. A fresh set of ports is the remedy.
+const STARTS: usize = 3;
+
+/// Running nats-servers: the processes (killed on drop), their client URLs and the MQTT port
+/// of the first when one was asked for.
+struct Cluster {
+    servers: Vec<Killed>,
+    urls: Vec<String>,
+    mqtt: u16,
+}
+
 /// Starts `n` nats-servers with JetStream, clustered when `n > 1`, the partition mapping of
-/// `partitions`, and an MQTT listener on the first; returns them and their client URLs.
-fn cluster(dir: &Dir, n: usize, partitions: u32, mqtt: Option<u16>) -> (Vec<Killed>, Vec<String>) {
+/// `partitions`, and an MQTT listener on the first when `mqtt`; returns once every server
+/// says it is ready and, clustered, a metadata leader is elected. A start that loses a port
+/// (see [`STARTS`]) is retried on new ports; the last failure's server log ends the case.
+fn cluster(dir: &Dir, n: usize, partitions: u32, mqtt: bool) -> Cluster {
+    let mut why = String::new();
+    for attempt in 0..STARTS {
+        match start(dir, attempt, n, partitions, mqtt) {
+            Ok(c) => return c,
+            Err(e) => {
+                eprintln!("nats-servers again on new ports: {e}");
+                why = e;
+            }
+        }
+    }
+    panic!("the nats-servers did not start in {STARTS} tries: {why}");
+}
+
+/// One try of [`cluster`], its files named by `attempt`.
+fn start(
+    dir: &Dir,
+    attempt: usize,
+    n: usize,
+    partitions: u32,
+    mqtt: bool,
+) -> Result<Cluster, String> {
     let client: Vec<u16> = (0..n).map(|_| free_port()).collect();
     let route: Vec<u16> = (0..n).map(|_| free_port()).collect();
+    let mqtt = if mqtt { free_port() } else { 0 };
     let routes: Vec<String> = route
         .iter()
         .map(|p| format!("nats-route://127.0.0.1:{p}"))
         .collect();
     let mut servers = Vec::new();
+    let mut logs = Vec::new();
     for i in 0..n {
         let mut conf = format!(
             "server_name: n{i}\nlisten: 127.0.0.1:{}\njetstream {{ store_dir: \"{}\" }}\n{}",
             client[i],
-            dir.path(&format!("js{i}")).display(),
+            dir.path(&format!("js{i}-{attempt}")).display(),
             server_mappings(partitions)
         );
         if n > 1 {
@@ -48,24 +91,59 @@ fn cluster(dir: &Dir, n: usize, partitions: u32, mqtt: Option<u16>) -> (Vec<Kill
                 routes.join(", ")
             ));
         }
-        if let (0, Some(port)) = (i, mqtt) {
-            conf.push_str(&format!("mqtt {{ listen: 127.0.0.1:{port} }}\n"));
+        if i == 0 && mqtt != 0 {
+            conf.push_str(&format!("mqtt {{ listen: 127.0.0.1:{mqtt} }}\n"));
         }
-        let path = dir.file(&format!("n{i}.conf"), conf.as_bytes());
-        let log = std::fs::File::create(dir.path(&format!("n{i}.log"))).unwrap();
+        let path = dir.file(&format!("n{i}-{attempt}.conf"), conf.as_bytes());
+        let log = dir.path(&format!("n{i}-{attempt}.log"));
         let child = Command::new(NATS_SERVER)
             .args(["-c", path.to_str().unwrap()])
             .stdout(Stdio::null())
-            .stderr(log)
+            .stderr(std::fs::File::create(&log).unwrap())
             .spawn()
             .expect("nats-server starts");
         servers.push(Killed(child));
+        logs.push(log);
     }
-    let urls = client
-        .iter()
-        .map(|p| format!("nats://127.0.0.1:{p}"))
-        .collect();
-    (servers, urls)
+    let t0 = Instant::now();
+    loop {
+        let text: Vec<String> = logs
+            .iter()
+            .map(|l| std::fs::read_to_string(l).unwrap_or_default())
+            .collect();
+        for (i, s) in servers.iter_mut().enumerate() {
+            if let Ok(Some(status)) = s.0.try_wait() {
+                let last = text[i]
+                    .lines()
+                    .rev()
+                    .find(|l| l.contains("[FTL]") || l.contains("[ERR]"));
+                return Err(format!(
+                    "n{i} exited ({status}): {}",
+                    last.unwrap_or("no error logged")
+                ));
+            }
+        }
+        let ready = text.iter().all(|t| t.contains("Server is ready"));
+        let led = n == 1 || text.iter().any(|t| t.contains("new metadata leader"));
+        if ready && led {
+            let urls = client
+                .iter()
+                .map(|p| format!("nats://127.0.0.1:{p}"))
+                .collect();
+            return Ok(Cluster {
+                servers,
+                urls,
+                mqtt,
+            });
+        }
+        if t0.elapsed() > STARTUP {
+            return Err(format!(
+                "not ready after {STARTUP:?} (logs in {})",
+                dir.0.display()
+            ));
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
 }
 
 /// A gateway, once the cluster has a JetStream leader and the streams exist.
@@ -194,7 +272,9 @@ fn fleet_run(default_n: f64, default_s: f64, default_speedup: f64) {
     let want = batch_rows(&dir, &model, &streamed);
     let rows_each: u64 = sent.iter().map(|b| b.lines().count() as u64 - 1).sum();
 
-    let (mut servers, urls) = cluster(&dir, 3, PARTITIONS, None);
+    let Cluster {
+        mut servers, urls, ..
+    } = cluster(&dir, 3, PARTITIONS, false);
     let urls = urls.join(",");
     let gw = gateway(&urls, 3);
     let body = std::fs::read(&model).unwrap();
@@ -426,8 +506,11 @@ fn a_gateway_over_mqtt_reaches_a_worker() {
     let dir = Dir::new("nats-mqtt");
     let (raw, model) = healthy_day(&dir, "6");
     let s = |p: &Path| p.to_str().unwrap().to_string();
-    let mqtt = free_port();
-    let (_servers, urls) = cluster(&dir, 1, 4, Some(mqtt));
+    let Cluster {
+        servers: _servers,
+        urls,
+        mqtt,
+    } = cluster(&dir, 1, 4, true);
     let gw = gateway(&urls[0], 1);
     let cfg = dir.file(
         "fleet.toml",

@@ -197,5 +197,8 @@ fn paper_exact_office_data_with_a_constant_k_cell_give_the_determined_parameters
     // back-EMF combinations low by about what Kd·ΔF_c makes up at the rated speed. With
     // gentler ramps (A_MAX 0.5) F_c comes back (313 ± 39 N) but M0 falls 8 % (at 0.3, 23 %):
     // the fused acceleration's noise, large against a small acceleration, attenuates the
-    // inertia it is regressed on.
+    // inertia it is regressed on. At 0.9 the acceleration is not the cause (exact: 729 N);
+    // the interpolation weights are (none: 432 N; from the neighbours' curvature alone:
+    // 564 N): they follow the sample's own noise and cut down the ramps, the only samples
+    // that split Ke·|v| from Kd·F_c (README, Method, Identifiability).
 }

@@ -44,7 +44,7 @@ struct Cluster {
 
 /// Starts `n` nats-servers with JetStream, clustered when `n > 1`, the partition mapping of
 /// `partitions`, and an MQTT listener on the first when `mqtt`; returns once every server
-/// says it is ready and, clustered, a metadata leader is elected. A start that loses a port
+/// has bound its listeners and, clustered, a metadata leader is elected. A start that loses a port
 /// (see [`STARTS`]) is retried on new ports; the last failure's server log ends the case.
 fn cluster(dir: &Dir, n: usize, partitions: u32, mqtt: bool) -> Cluster {
     let mut why = String::new();
@@ -123,7 +123,12 @@ fn start(
                 ));
             }
         }
-        let ready = text.iter().all(|t| t.contains("Server is ready"));
+        // Every listener bound (a route port is bound after "Server is ready"), and a leader.
+        let ready = text.iter().enumerate().all(|(i, t)| {
+            t.contains("Server is ready")
+                && (n == 1 || t.contains("Listening for route connections"))
+                && (i > 0 || mqtt == 0 || t.contains("Listening for MQTT clients"))
+        });
         let led = n == 1 || text.iter().any(|t| t.contains("new metadata leader"));
         if ready && led {
             let urls = client

@@ -172,6 +172,16 @@ pub struct CalibrationReport {
     pub fit_error: [f64; N_MODES],
 }
 
+impl CalibrationReport {
+    /// The stated target in words, its noun agreeing with the number: "1 false advisory",
+    /// "0.5 false advisories".
+    pub fn target_text(&self) -> String {
+        let n = self.target_false_advisories_per_year;
+        let noun = if n == 1.0 { "advisory" } else { "advisories" };
+        format!("{n} false {noun}")
+    }
+}
+
 /// Settings of [`calibrate`].
 #[derive(Clone, Debug, PartialEq)]
 pub struct CalibrationSettings {
@@ -1335,6 +1345,27 @@ mod tests {
             .zip(trips)
             .find(|(a, _)| a.risk >= cfg.advisory)
             .map(|(_, t)| t.start)
+    }
+
+    #[test]
+    fn the_alarm_budget_reads_in_words_with_its_noun_agreeing() {
+        let m = test_model();
+        let training = synthetic_trips(&m, 31, 2.0, 0.0, &|_, _| 0.0);
+        let settings = CalibrationSettings {
+            years: 0.5,
+            ..CalibrationSettings::default()
+        };
+        let mut report = calibrate(&training, DEFAULT_WINDING_TAU_S, &NO_FIT_ERROR, &settings)
+            .expect("calibrates")
+            .report;
+        for (target, words) in [
+            (1.0, "1 false advisory"),
+            (2.0, "2 false advisories"),
+            (0.5, "0.5 false advisories"),
+        ] {
+            report.target_false_advisories_per_year = target;
+            assert_eq!(report.target_text(), words);
+        }
     }
 
     #[test]

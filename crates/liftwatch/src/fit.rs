@@ -210,8 +210,8 @@ fn short_training_notes(report: &CalibrationReport, risk: &RiskConfig) -> Vec<St
         ));
     }
     notes.push(format!(
-        "it cannot promise its alarm budget of {} false advisories per elevator-year: days unlike these (weekends, other seasons' temperatures, other traffic) were never seen; refit on {ENOUGH_TRAINING_DAYS:.0} days or more of healthy data",
-        report.target_false_advisories_per_year
+        "it cannot promise its alarm budget of {} per elevator-year: days unlike these (weekends, other seasons' temperatures, other traffic) were never seen; refit on {ENOUGH_TRAINING_DAYS:.0} days or more of healthy data",
+        report.target_text()
     ));
     notes
 }

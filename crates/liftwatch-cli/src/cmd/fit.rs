@@ -317,8 +317,8 @@ pub fn summary(m: &fit::FittedModel, trips: usize, seconds: f64) -> String {
     if let Some(c) = &m.calibration {
         let _ = writeln!(
             s,
-            "alarm budget: at most {} false advisories per elevator-year targeted, {:.2} in an independent bootstrap of {} years",
-            c.target_false_advisories_per_year,
+            "alarm budget: at most {} per elevator-year targeted, {:.2} in an independent bootstrap of {} years",
+            c.target_text(),
             c.validated_false_advisories_per_year,
             c.years_simulated
         );

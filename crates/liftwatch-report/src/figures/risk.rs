@@ -369,11 +369,11 @@ fn risk_text(c: &Ctx) -> Vec<String> {
         num(cfg.gamma),
         c.inp.model.calibration.as_ref().map_or("The thresholds are the model file's settings.".to_string(), |k| format!(
             "The thresholds were calibrated on {} healthy trips ({} h), bootstrapped to {} simulated years, for a target of {} \
-             false advisories per year (validated: {}).",
+             per year (validated: {}).",
             k.trips,
             num(k.hours),
             num(k.years_simulated),
-            num(k.target_false_advisories_per_year),
+            k.target_text(),
             num(k.validated_false_advisories_per_year)
         )),
         num(max_r),

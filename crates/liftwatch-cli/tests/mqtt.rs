@@ -13,7 +13,7 @@ use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 use common::serve::{csv_rows, healthy_day, run, strip, Server, BIN, PATIENCE, TOKEN};
-use common::{free_port, Dir, Killed};
+use common::{free_port, on_fresh_ports, Dir, Killed};
 use serde_json::Value;
 
 /// Debian's Mosquitto broker and its password tool.
@@ -34,9 +34,7 @@ fn broker(dir: &Dir) -> (Killed, u16) {
             .expect("mosquitto_passwd runs");
         assert!(st.success());
     }
-    // A port that `free_port` found free can be taken by another process's connection before
-    // mosquitto binds it; mosquitto then exits, and a fresh port is the remedy (3 tries).
-    for attempt in 0..3 {
+    on_fresh_ports("mosquitto", |attempt| {
         let port = free_port();
         let conf = dir.file(
             &format!("mosquitto-{attempt}.conf"),
@@ -46,28 +44,35 @@ fn broker(dir: &Dir) -> (Killed, u16) {
             )
             .as_bytes(),
         );
+        // Its log, not a connection, tells it listens: a connection could reach whatever
+        // else holds the port.
+        let log = dir.path(&format!("mosquitto-{attempt}.log"));
         let mut child = Killed(
             Command::new(MOSQUITTO)
                 .args(["-c", conf.to_str().unwrap()])
                 .stdout(Stdio::null())
-                .stderr(Stdio::null())
+                .stderr(std::fs::File::create(&log).unwrap())
                 .spawn()
                 .expect("mosquitto starts"),
         );
         let t0 = Instant::now();
         loop {
+            let text = std::fs::read_to_string(&log).unwrap_or_default();
             if let Ok(Some(status)) = child.0.try_wait() {
-                eprintln!("mosquitto on port {port} exited ({status}); again on another");
-                break;
+                let error = text.lines().find(|l| l.contains("Error"));
+                return Err(format!(
+                    "port {port}: exited ({status}): {}",
+                    error.unwrap_or("no error logged")
+                ));
             }
-            if std::net::TcpStream::connect(("127.0.0.1", port)).is_ok() {
-                return (child, port);
+            // "running" comes once every listener is bound.
+            if text.contains(" running") {
+                return Ok((child, port));
             }
             assert!(t0.elapsed() < PATIENCE, "mosquitto did not listen");
             std::thread::sleep(Duration::from_millis(50));
         }
-    }
-    panic!("mosquitto did not start in 3 tries");
+    })
 }
 
 #[test]

@@ -16,7 +16,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use common::serve::{csv_rows, healthy_day, run, Server, BIN, PATIENCE, TOKEN};
-use common::{batches, env_num, free_port, rss_kb, Dir, Killed};
+use common::{batches, env_num, free_port, on_fresh_ports, rss_kb, Dir, Killed};
 use liftwatch_serve::fleet::bus::server_mappings;
 use liftwatch_serve::fleet::gateway::Gateway;
 use serde_json::Value;
@@ -28,12 +28,6 @@ const NATS_SERVER: &str = "/usr/sbin/nats-server";
 /// metadata leader): well under a second here, so this only bounds a broken start.
 const STARTUP: Duration = Duration::from_secs(20);
 
-/// Whole clusters started before a case gives up. A port that [`free_port`] found free is
-/// closed again before the server binds it, and in that gap another process's connection can
-/// take it as its local port; the server then exits ("address already in use") and a cluster
-/// of 3 has 2 JetStream peers, too few for 3 replicas. A fresh set of ports is the remedy.
-const STARTS: usize = 3;
-
 /// Running nats-servers: the processes (killed on drop), their client URLs and the MQTT port
 /// of the first when one was asked for.
 struct Cluster {
@@ -44,20 +38,13 @@ struct Cluster {
 
 /// Starts `n` nats-servers with JetStream, clustered when `n > 1`, the partition mapping of
 /// `partitions`, and an MQTT listener on the first when `mqtt`; returns once every server
-/// has bound its listeners and, clustered, a metadata leader is elected. A start that loses a port
-/// (see [`STARTS`]) is retried on new ports; the last failure's server log ends the case.
+/// has bound its listeners and, clustered, a metadata leader is elected. A start that loses a
+/// port is retried on new ports ([`on_fresh_ports`]): one server gone leaves a cluster of 3
+/// with 2 JetStream peers, too few for 3 replicas; the last failure's server log ends the case.
 fn cluster(dir: &Dir, n: usize, partitions: u32, mqtt: bool) -> Cluster {
-    let mut why = String::new();
-    for attempt in 0..STARTS {
-        match start(dir, attempt, n, partitions, mqtt) {
-            Ok(c) => return c,
-            Err(e) => {
-                eprintln!("nats-servers again on new ports: {e}");
-                why = e;
-            }
-        }
-    }
-    panic!("the nats-servers did not start in {STARTS} tries: {why}");
+    on_fresh_ports("the nats-servers", |attempt| {
+        start(dir, attempt, n, partitions, mqtt)
+    })
 }
 
 /// One try of [`cluster`], its files named by `attempt`.

@@ -62,12 +62,35 @@ impl Drop for Killed {
     }
 }
 
-/// A free loopback port (the listener is closed again at once).
+/// A free loopback port (the listener is closed again at once: see [`on_fresh_ports`]).
 pub fn free_port() -> u16 {
     TcpListener::bind("127.0.0.1:0")
         .and_then(|l| l.local_addr())
         .expect("a free port")
         .port()
+}
+
+/// Starts of a server (a broker, a cluster) on fresh ports before a case gives up. A port
+/// that [`free_port`] found free is closed again before the server binds it, and in that gap
+/// another process's connection can take it as its local port; the server then exits
+/// ("address already in use"). A fresh set of ports is the remedy.
+pub const PORT_TRIES: usize = 3;
+
+/// `start(attempt)` until it returns a server, at most [`PORT_TRIES`] times, each try on
+/// ports it takes afresh; `Err` says why a try failed (a server that exited, and its log).
+/// Panics with the last reason when none started.
+pub fn on_fresh_ports<T>(what: &str, mut start: impl FnMut(usize) -> Result<T, String>) -> T {
+    let mut why = String::new();
+    for attempt in 0..PORT_TRIES {
+        match start(attempt) {
+            Ok(server) => return server,
+            Err(e) => {
+                eprintln!("{what} again on new ports: {e}");
+                why = e;
+            }
+        }
+    }
+    panic!("{what} did not start in {PORT_TRIES} tries: {why}");
 }
 
 /// A number from the environment, or `default`.

@@ -10,7 +10,7 @@
 use std::time::Instant;
 
 use liftwatch::features::{extract, fit_load_cell, FeatureConfig};
-use liftwatch::model::train::{observations_weighted, train, Optimizer};
+use liftwatch::model::train::{observations_weighted, train, Optimizer, INTERPOLATION_NOISE_SHARE};
 use liftwatch::model::{PhysParams, TrainConfig};
 use liftwatch::sim::{simulate, SimConfig};
 use liftwatch::Elevator;
@@ -30,15 +30,15 @@ fn main() {
         elevator.floors,
         0.1,
         prior.ke,
-        0.005 * elevator.rated_voltage(),
+        INTERPOLATION_NOISE_SHARE * elevator.rated_voltage(),
     )
     .expect("enough motion");
-    let (obs, moving, rest) = (o.obs, o.moving, o.standstill);
+    let (moving, rest) = (o.moving, o.standstill);
     println!(
         "data: {} samples, {} trips, {moving} moving samples, {rest} standstill ({} observations after grouping)",
         series.len(),
         feats.trips.len(),
-        obs.len()
+        o.obs.len()
     );
 
     let iters = std::env::var("FIT_BENCH_LBFGS_ITERS")
@@ -54,7 +54,7 @@ fn main() {
     let mut fit = None;
     for _ in 0..5 {
         let t = Instant::now();
-        fit = Some(train(&obs, &elevator, &lbfgs, &mut |_| {}).expect("fit"));
+        fit = Some(train(&o, &elevator, &lbfgs, &mut |_| {}).expect("fit"));
         times.push(t.elapsed().as_secs_f64());
     }
     times.sort_by(f64::total_cmp);
@@ -75,7 +75,7 @@ fn main() {
         ..TrainConfig::default()
     };
     let t = Instant::now();
-    let a = train(&obs, &elevator, &adam, &mut |_| {}).expect("fit");
+    let a = train(&o, &elevator, &adam, &mut |_| {}).expect("fit");
     let ta = t.elapsed().as_secs_f64();
     println!(
         "adam ({epochs} epochs from the prior): {ta:.3} s, rms r_U {:.3} V, loss {:.4e}",

@@ -120,7 +120,7 @@ pub fn fit_with(
         prior.ke,
         train::INTERPOLATION_NOISE_SHARE * elevator.rated_voltage(),
     )?;
-    let trained = train::train(&observed.obs, elevator, cfg, observer)?;
+    let trained = train::train(&observed, elevator, cfg, observer)?;
     let mut summary = trained.summary;
     summary.standstill_samples = observed.standstill;
     if observed.drive_off_at_rest {

@@ -206,6 +206,26 @@ impl PhysParams {
         self.du_dtheta_at(s, v, a, q, f)
     }
 
+    /// ∂U/∂|v| in direction `s` (±1): Ke + φ(s)·Kd·c, the back-EMF and the viscous friction's
+    /// share (V·s/m). An error e in the speed reading moves the predicted voltage by this
+    /// times e.
+    pub fn du_dspeed(&self, s: i8) -> f64 {
+        self.ke + self.phi(s) * self.kd * self.c_visc
+    }
+
+    /// ∂(∂U/∂|v|)/∂θ in direction `s` (±1), in the order of [`PhysParams::NAMES`]: c, Kd, Ke
+    /// and, down, α_down.
+    pub fn du_dspeed_dtheta(&self, s: i8) -> [f64; N_PHYS] {
+        let mut d = [0.0; N_PHYS];
+        d[3] = self.phi(s) * self.kd;
+        d[4] = self.phi(s) * self.c_visc;
+        d[5] = 1.0;
+        if s == -1 {
+            d[7] = self.kd * self.c_visc;
+        }
+        d
+    }
+
     /// [`Self::du_dtheta`] for a caller that has the force F at the point already.
     pub fn du_dtheta_at(&self, s: i8, v: f64, a: f64, q: f64, f: f64) -> [f64; N_PHYS] {
         let sf = f64::from(s);

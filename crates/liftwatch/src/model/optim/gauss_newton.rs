@@ -1,12 +1,30 @@
 //! Stage 4, fit stage 1: the physics alone, by Gauss-Newton with Levenberg-Marquardt damping.
 //!
 //! ```text
-//! C(z)  = Σ_i w_i·((U_i − U_phys(x_i; θ(z)))/σ_U)² + w_P·Σ_k ((θ_k − μ_k)/τ_k)²
+//! C(z)  = Σ_i w_i·((U_i − U_phys(x_i; θ(z)))/σ_U)² − Σ_i w_i·(σ_v·D(s_i; θ)/σ_U)²
+//!         + w_P·Σ_k ((θ_k − μ_k)/τ_k)²              D(s; θ) = ∂U/∂|v| = Ke + φ(s)·Kd·c
 //! J_ik  = ∂U_phys/∂θ_k · dθ_k/dz_k / σ_U           the prior enters as pseudo-observations
-//! H     = Σ_i w_i·J_iᵀJ_i + w_P·diag((dθ_k/dz_k/τ_k)²),   g = Σ_i w_i·r_i·J_i − prior terms
+//! E_ik  = σ_v·∂D(s_i)/∂θ_k · dθ_k/dz_k / σ_U       the speed noise's term, a negative square
+//! H     = Σ_i w_i·(J_iᵀJ_i − E_iᵀE_i) + w_P·diag((dθ_k/dz_k/τ_k)²)
+//! g     = Σ_i w_i·(r_i·J_i + σ_v·D(s_i)/σ_U·E_i) − prior terms
 //! (H + μ·diag(H))·Δz = g,  z ← z + Δz when C does not rise
 //! μ ← max(0.3·μ, 10⁻⁹) after an accepted step, μ ← 10·μ after a rejected one
 //! ```
+//!
+//! The second sum is the errors-in-variables correction (corrected least squares: Fuller,
+//! *Measurement Error Models*, 1987, §2.2; Nakamura, Biometrika 1990), 0 in stage 1 itself.
+//! The speed regressor is read with its own noise σ_v, so at the true θ a sample's expected
+//! squared residual is σ_U² + D²·σ_v², and plain least squares buys part of that back by
+//! shrinking D: it attenuates Ke. While cruising |v| is nearly one value per direction, so
+//! the back-EMF that Ke loses there, Ke·|v|, is made up by the one term that is also
+//! constant per direction, Kd·F_c: half a per cent of Ke on a 1 m/s car is a few hundred
+//! newtons of friction. Subtracting the noise's expected share removes the attenuation; σ_v
+//! is measured on the training's cruising samples
+//! ([`crate::model::train::speed_noise_of`]), and the fit reports the corrected θ beside the
+//! plain one, which stays the better predictor from equally noisy readings
+//! ([`crate::model::train::train`]). The acceleration's noise is left out: a varies over the
+//! whole ramp, so its noise (σ_v/√2 per second for the central difference, about
+//! 0.005 m/s²) against its spread (tenths of m/s²) attenuates M0 by about 10⁻⁴.
 //!
 //! Stopping rule: when an accepted step lowers C by less than 10⁻¹² of C; when 30 increases
 //! of μ in a row find no step that lowers C; or after 100 iterations.
@@ -50,6 +68,8 @@ pub struct VoltageFit<'a> {
     pub sigma_u: f64,
     /// w_P: weight of the prior.
     pub w_p: f64,
+    /// σ_v: noise of the speed reading (m/s), 0 for none; see the module's notes.
+    pub speed_noise_mps: f64,
 }
 
 impl VoltageFit<'_> {
@@ -112,12 +132,30 @@ impl VoltageFit<'_> {
     /// C(z).
     fn cost(&self, z: &[f64; N_PHYS]) -> f64 {
         let p = self.map.theta(z);
-        let d: f64 = self
-            .data
-            .iter()
-            .map(|o| o.w * ((o.u - o.u_phys(&p, self.rated_load_kg)) / self.sigma_u).powi(2))
+        let mut d = 0.0;
+        for o in self.data {
+            d += o.w * ((o.u - o.u_phys(&p, self.rated_load_kg)) / self.sigma_u).powi(2);
+        }
+        let noise: f64 = self
+            .moving_weights()
+            .into_iter()
+            .map(|(s, w)| w * (self.speed_noise_mps * p.du_dspeed(s) / self.sigma_u).powi(2))
             .sum();
-        d + self.w_p * self.prior.penalty(&p)
+        d - noise + self.w_p * self.prior.penalty(&p)
+    }
+
+    /// Σ w of the moving observations, up (+1) and down (−1): the speed noise's term is the
+    /// same for every sample of one direction.
+    fn moving_weights(&self) -> [(i8, f64); 2] {
+        let (mut up, mut down) = (0.0, 0.0);
+        for o in self.data {
+            match o.s {
+                1 => up += o.w,
+                -1 => down += o.w,
+                _ => {}
+            }
+        }
+        [(1, up), (-1, down)]
     }
 
     /// H = JᵀWJ and g = JᵀWr at z, the prior included.
@@ -135,6 +173,18 @@ impl VoltageFit<'_> {
                 g[k] += o.w * r * j[k];
             }
             h.add_outer(&j, o.w);
+        }
+        if self.speed_noise_mps > 0.0 {
+            let scale = self.speed_noise_mps / sigma_u;
+            for (s, w) in self.moving_weights() {
+                let e = scale * p.du_dspeed(s);
+                let mut de = p.du_dspeed_dtheta(s);
+                for k in 0..N_PHYS {
+                    de[k] *= scale * dz[k];
+                    g[k] += w * e * de[k];
+                }
+                h.add_outer(&de, -w);
+            }
         }
         let (t, m) = (p.to_array(), prior.centre.to_array());
         for k in 0..N_PHYS {

@@ -48,6 +48,12 @@ pub struct ParamReport {
     pub prior_sd: Option<f64>,
     /// True when the data narrowed the prior at least threefold: the value is the data's.
     pub determined: bool,
+    /// The value with the speed reading's noise taken out of stage 1 (errors in variables,
+    /// [`crate::model::optim::gauss_newton`]): the physical constant, where `value` is what
+    /// predicts the voltage best from readings as noisy as the training's, and what the
+    /// model predicts with. `None` when no speed noise was measured.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub corrected: Option<f64>,
 }
 
 /// Why stage 2 stopped, and how far its loss still fell at the end.
@@ -94,6 +100,11 @@ pub struct FitSummary {
     pub moving_samples: usize,
     /// Standstill samples used.
     pub standstill_samples: usize,
+    /// σ_v: the speed reading's noise measured on the cruising samples and corrected for in
+    /// stage 1 (m/s; [`crate::model::train::speed_noise_of`]); 0 when too few showed it and in
+    /// models written before it was measured.
+    #[serde(default)]
+    pub speed_noise_mps: f64,
     /// Per parameter and identifiable combination: value, standard error, determined or not.
     pub parameters: Vec<ParamReport>,
     /// Training history, thinned to at most a few hundred points.
@@ -171,6 +182,7 @@ pub(super) fn param_reports(
                 std_error: Some(se),
                 prior_sd: Some(prior.sd[k]),
                 determined,
+                corrected: None,
             }
         })
         .collect();
@@ -182,6 +194,19 @@ pub(super) fn param_reports(
         p.ke * LATENCY_STEP_S / p.kd
     ));
     (reps, warnings, Some(cov))
+}
+
+/// Sets each report's `corrected` value, parameters and combinations alike, from θ fitted
+/// with the speed reading's noise taken out.
+pub(super) fn set_corrected(reports: &mut [ParamReport], corrected: &PhysParams) {
+    let values: Vec<(&str, f64)> = PhysParams::NAMES
+        .into_iter()
+        .zip(corrected.to_array())
+        .chain(corrected.determined())
+        .collect();
+    for r in reports {
+        r.corrected = values.iter().find(|(n, _)| *n == r.name).map(|(_, v)| *v);
+    }
 }
 
 /// The reports when the covariance is singular: values and prior widths, nothing determined.
@@ -197,6 +222,7 @@ fn without_errors(p: &PhysParams, prior: &Prior) -> Vec<ParamReport> {
             std_error: None,
             prior_sd: Some(prior.sd[k]),
             determined: false,
+            corrected: None,
         })
         .collect()
 }
@@ -212,6 +238,7 @@ fn combinations(p: &PhysParams, cov: &SquareMatrix) -> [ParamReport; 2] {
             std_error: Some(se),
             prior_sd: None,
             determined: se < DETERMINED_COMBINATION * value.abs(),
+            corrected: None,
         }
     };
     [

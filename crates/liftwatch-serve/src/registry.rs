@@ -207,7 +207,8 @@ fn model_rows(conn: &Connection, id: &str) -> rusqlite::Result<Vec<ModelRow>> {
 }
 
 /// The fitted physical parameters of a model document: `{name: {value, std_error, unit,
-/// determined}}`.
+/// determined, corrected}}` (`corrected`: the value with the speed noise taken out, null when
+/// the fit measured none).
 fn parameters(body: &str) -> Value {
     let Ok(doc) = serde_json::from_str::<Value>(body) else {
         return Value::Null;
@@ -223,6 +224,7 @@ fn parameters(body: &str) -> Value {
                         "std_error": p.get("std_error"),
                         "unit": p.get("unit"),
                         "determined": p.get("determined"),
+                        "corrected": p.get("corrected"),
                     }),
                 );
             }

@@ -147,6 +147,7 @@ fn json_summary(
                 "std_error": r.std_error.and_then(finite),
                 "unit": r.unit,
                 "decided_by": if r.determined { "data" } else { "prior" },
+                "corrected": r.corrected.and_then(finite),
             });
             (r.name.to_string(), v)
         })
@@ -161,6 +162,7 @@ fn json_summary(
         "seconds": seconds,
         "moving_samples": f.moving_samples,
         "standstill_samples": f.standstill_samples,
+        "speed_noise_mps": f.speed_noise_mps,
         "trips": outcome.features.trips.len(),
         "rms_r_voltage_v": finite(f.rms_u_v),
         "rms_r_force_n": finite(f.rms_f_n),
@@ -192,25 +194,36 @@ pub fn summary(m: &fit::FittedModel, trips: usize, seconds: f64) -> String {
     );
     let _ = writeln!(
         s,
-        "{:<27} {:>12} {:>11}  {:<6} decided by",
-        "parameter", "value", "std error", "unit"
+        "{:<27} {:>12} {:>11} {:>12}  {:<6} decided by",
+        "parameter", "value", "std error", "corrected", "unit"
     );
     for r in &f.parameters {
         let se = r
             .std_error
             .map_or_else(|| "n/a".to_string(), |v| format!("{v:.5}"));
+        let corrected = r
+            .corrected
+            .map_or_else(|| "-".to_string(), |v| format!("{v:.5}"));
         let _ = writeln!(
             s,
-            "{:<27} {:>12.5} {:>11}  {:<6} {}",
+            "{:<27} {:>12.5} {:>11} {:>12}  {:<6} {}",
             r.name,
             r.value,
             se,
+            corrected,
             r.unit,
             if r.determined {
                 "data"
             } else {
                 "prior (weakly identifiable)"
             }
+        );
+    }
+    if f.speed_noise_mps > 0.0 {
+        let _ = writeln!(
+            s,
+            "corrected: the values with the speed reading's noise ({:.4} m/s, measured while cruising) taken out, the physical constants; the model predicts with the plain values, the better predictors from readings this noisy",
+            f.speed_noise_mps
         );
     }
     if let Some(stop) = &f.stage2_stop {

@@ -239,8 +239,11 @@ pub(super) fn parameters(c: &Ctx) -> Section {
             Some(_) => "prior (weakly identifiable)",
             None => "n/a",
         };
+        let corrected = report
+            .and_then(|r| r.corrected)
+            .map_or_else(|| "-".to_string(), num);
         rows_html.push(format!(
-            "<tr><td>{name}</td><td>{shown}</td><td>{}</td><td>{unit}</td><td>{by}</td></tr>",
+            "<tr><td>{name}</td><td>{shown}</td><td>{}</td><td>{corrected}</td><td>{unit}</td><td>{by}</td></tr>",
             num(se)
         ));
     }
@@ -316,7 +319,7 @@ fn parameter_panel(
 /// What the panels show, the table of final values and the fit's warnings.
 fn parameters_text(fit: &FitSummary, optimizer: Optimizer, rows_html: &[String]) -> Vec<String> {
     let table = format!(
-        "<table><tr><th>parameter</th><th>value</th><th>std. error</th><th>unit</th><th>decided by</th></tr>{}</table>",
+        "<table><tr><th>parameter</th><th>value</th><th>std. error</th><th>corrected for speed noise</th><th>unit</th><th>decided by</th></tr>{}</table>",
         rows_html.join("")
     );
     let determined = fit
@@ -340,6 +343,16 @@ fn parameters_text(fit: &FitSummary, optimizer: Optimizer, rows_html: &[String])
         ),
         table,
     ];
+    if fit.speed_noise_mps > 0.0 {
+        text.push(format!(
+            "The speed reading carries {:.4} m/s of noise (measured while cruising). Least squares on a noisy speed \
+             shrinks the back-EMF slope Ke, and the Coulomb friction F_c, constant in each direction as the cruising speed \
+             nearly is, makes the voltage up: the corrected column takes the noise's share out and gives the physical \
+             values. The model predicts with the plain values, which are the better predictors from readings as noisy \
+             as these.",
+            fit.speed_noise_mps
+        ));
+    }
     for w in &fit.warnings {
         text.push(format!("Note from the fit: {}.", escape(w)));
     }

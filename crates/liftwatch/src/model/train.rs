@@ -631,8 +631,8 @@ fn fit_physics(
 /// monitor predicts from readings as noisy as the training's, and for that the attenuated θ is
 /// the better predictor. Predicting with the corrected θ was tried: the parameters came back,
 /// but the network then learnt the attenuation back in its own way, which followed the
-/// training's mix of ramps and cruising, and after 3-hour trainings 2 of 11 network seeds
-/// raised false advisories on the 1600 kg car (none of 10 with the plain θ).
+/// training's mix of ramps and cruising, and after 3-hour trainings 2 of 12 network seeds
+/// raised false advisories on the 1600 kg car (none of 12 with the plain θ).
 fn noise_corrected(
     data: &[Obs],
     speed_noise_mps: f64,

@@ -386,7 +386,7 @@ pub fn observations_weighted(
 
 /// Least cruising triples for [`speed_noise_of`]: below this the spread is too uncertain to
 /// correct for (50 differences give σ within about ±15 %, robustly a little wider).
-const MIN_CRUISE_TRIPLES: usize = 50;
+pub const MIN_CRUISE_TRIPLES: usize = 50;
 /// Longest span (s) of a triple of consecutive samples in [`speed_noise_of`]: two steps of a
 /// ≈1 Hz log with room for its clocks' jitter; a longer one straddles a gap.
 const MAX_TRIPLE_SPAN_S: f64 = 2.5;

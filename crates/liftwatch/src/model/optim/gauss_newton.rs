@@ -132,16 +132,24 @@ impl VoltageFit<'_> {
     /// C(z).
     fn cost(&self, z: &[f64; N_PHYS]) -> f64 {
         let p = self.map.theta(z);
-        let mut d = 0.0;
-        for o in self.data {
-            d += o.w * ((o.u - o.u_phys(&p, self.rated_load_kg)) / self.sigma_u).powi(2);
+        let d: f64 = self
+            .data
+            .iter()
+            .map(|o| o.w * ((o.u - o.u_phys(&p, self.rated_load_kg)) / self.sigma_u).powi(2))
+            .sum();
+        d - self.speed_noise_share(&p) + self.w_p * self.prior.penalty(&p)
+    }
+
+    /// Σ_i w_i·(σ_v·D(s_i; θ)/σ_U)²: the speed noise's expected share of the cost; 0, and no
+    /// pass over the data, without a speed noise.
+    fn speed_noise_share(&self, p: &crate::model::physics::PhysParams) -> f64 {
+        if self.speed_noise_mps <= 0.0 {
+            return 0.0;
         }
-        let noise: f64 = self
-            .moving_weights()
+        self.moving_weights()
             .into_iter()
             .map(|(s, w)| w * (self.speed_noise_mps * p.du_dspeed(s) / self.sigma_u).powi(2))
-            .sum();
-        d - noise + self.w_p * self.prior.penalty(&p)
+            .sum()
     }
 
     /// Σ w of the moving observations, up (+1) and down (−1): the speed noise's term is the

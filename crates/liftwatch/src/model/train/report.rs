@@ -100,9 +100,9 @@ pub struct FitSummary {
     pub moving_samples: usize,
     /// Standstill samples used.
     pub standstill_samples: usize,
-    /// σ_v: the speed reading's noise measured on the cruising samples and corrected for in
-    /// stage 1 (m/s; [`crate::model::train::speed_noise_of`]); 0 when too few showed it and in
-    /// models written before it was measured.
+    /// σ_v: the speed reading's noise measured on the cruising samples, what the `corrected`
+    /// values of [`ParamReport`] take out (m/s; [`crate::model::train::speed_noise_of`]); 0 when
+    /// too few showed it and in models written before it was measured.
     #[serde(default)]
     pub speed_noise_mps: f64,
     /// Per parameter and identifiable combination: value, standard error, determined or not.

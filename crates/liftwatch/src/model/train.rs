@@ -393,7 +393,7 @@ const MAX_TRIPLE_SPAN_S: f64 = 2.5;
 
 /// σ_v: the noise of the speed reading at a sample (m/s), the robust spread of
 /// v[t+1] − v[t−1] over triples of consecutive cruising samples, divided by √2; 0 with fewer
-/// than [`MIN_CRUISE_TRIPLES`].
+/// than [`MIN_CRUISE_TRIPLES`] or without a finite spread.
 ///
 /// Cruising, the true speed holds still over two seconds, so the difference is noise alone.
 /// Not the second difference: each aligned speed is interpolated between two readings of
@@ -413,7 +413,13 @@ pub fn speed_noise_of(rows: &[FeatureRow]) -> f64 {
     if d.len() < MIN_CRUISE_TRIPLES {
         return 0.0;
     }
-    robust_sigma(d.into_iter()) / std::f64::consts::SQRT_2
+    let sigma = robust_sigma(d.into_iter()) / std::f64::consts::SQRT_2;
+    // Speeds so large that their differences overflow leave nothing to measure.
+    if sigma.is_finite() {
+        sigma
+    } else {
+        0.0
+    }
 }
 
 /// Voltage noise σ of the interpolation weights of moving samples, as a share of the rated

@@ -349,3 +349,19 @@ fn one_direction_only_is_refused() {
         Err(Error::Unidentifiable(_))
     ));
 }
+
+#[test]
+fn speeds_whose_differences_overflow_give_no_speed_noise_not_nan() {
+    // A hostile log: cruising speeds of ±1.7e308 in pairs (+ + − −), so that v[t+1] and
+    // v[t−1] differ in sign and their difference is infinite.
+    let e = Elevator::new(1000.0, 1.75, 26);
+    let mut rows = paper_exact(&truth(), &e, 1.0, 120, 3);
+    for (k, r) in rows
+        .iter_mut()
+        .filter(|r| r.phase == crate::features::Phase::Cruising)
+        .enumerate()
+    {
+        r.v = if k % 4 < 2 { 1.7e308 } else { -1.7e308 };
+    }
+    assert_eq!(speed_noise_of(&rows), 0.0);
+}

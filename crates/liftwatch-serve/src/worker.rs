@@ -203,7 +203,7 @@ impl SampleSink for Feed<'_> {
             }
             // Availability and doors (an outage's start and end, the door advisory), the
             // same lines as the events file, in the same order.
-            if let Some(e) = &row.operation {
+            if let Some(e) = row.operation.as_deref() {
                 let level = match e {
                     liftwatch::operation::OperationEvent::Door { raised: true, .. } => "advisory",
                     liftwatch::operation::OperationEvent::Door { raised: false, .. } => "normal",
@@ -223,7 +223,7 @@ impl SampleSink for Feed<'_> {
 
 /// The trip CSV line (`monitor --rows trip`, epoch times) of a row that reports a trip.
 pub fn trip_line(row: &MonitorRow) -> Option<String> {
-    row.trip_end?;
+    row.trip_end.as_ref()?;
     let mut w = TripRowWriter::new(Vec::new(), TimeFormat::Epoch).ok()?;
     w.write(row).ok()?;
     let bytes = w.into_inner().ok()?;

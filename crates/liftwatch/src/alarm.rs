@@ -257,9 +257,8 @@ pub const MIN_SCALED_RISK: f64 = 0.5;
 /// The fault mode the per-mode risks point at: the largest scaled risk R_m/A_m when it is at
 /// least [`MIN_SCALED_RISK`] and exceeds the runner-up by `dominance`, `Unknown` otherwise.
 pub fn attribute(risk_modes: &[f64; N_MODES], cfg: &RiskConfig) -> FaultMode {
-    let q: Vec<f64> = (0..N_MODES)
-        .map(|m| risk_modes[m] / cfg.advisory_modes[m].max(f64::MIN_POSITIVE))
-        .collect();
+    let q: [f64; N_MODES] =
+        std::array::from_fn(|m| risk_modes[m] / cfg.advisory_modes[m].max(f64::MIN_POSITIVE));
     let mut order = MACHINE_MODES;
     order.sort_by(|a, b| q[*b as usize].total_cmp(&q[*a as usize]));
     let (best, second) = (q[order[0] as usize], q[order[1] as usize]);

@@ -225,10 +225,12 @@ fn outcome_summary(truth: &SimTruth, pinn: &[MonitorRow], threshold: &[MonitorRo
     );
     let first =
         |rows: &[MonitorRow], level: Level| rows.iter().find(|r| r.level >= level).map(|r| r.time);
-    match pinn
-        .iter()
-        .find_map(|r| r.event.filter(|e| e.level >= Level::Advisory))
-    {
+    match pinn.iter().find_map(|r| {
+        r.event
+            .as_deref()
+            .copied()
+            .filter(|e| e.level >= Level::Advisory)
+    }) {
         Some(e) => {
             let _ = writeln!(
                 s,

@@ -172,7 +172,7 @@ mod tests {
         let row = |time: f64, level: Level| MonitorRow {
             time,
             level,
-            ..f.analysis.pinn[0]
+            ..f.analysis.pinn[0].clone()
         };
         let rows = [
             row(0.0, Level::Normal),

@@ -312,10 +312,10 @@ pub(super) struct CaseSink {
 
 impl CaseSink {
     fn pinn_row(&mut self, r: &MonitorRow) {
-        if let Some(e) = r.event {
-            self.events.push(e);
+        if let Some(e) = r.event.as_deref() {
+            self.events.push(*e);
         }
-        match r.operation {
+        match r.operation.as_deref() {
             Some(OperationEvent::Door { raised: true, .. }) => self.door_advisories += 1,
             Some(OperationEvent::OutageStart(_)) => self.outages += 1,
             _ => {}

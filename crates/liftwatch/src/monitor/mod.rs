@@ -97,7 +97,11 @@ impl std::str::FromStr for Method {
 }
 
 /// One output row (DATA.md §4). `NaN` marks an empty field.
-#[derive(Clone, Copy, Debug, PartialEq)]
+///
+/// The event, the trip summary and the operation event are boxed: they come with one row in
+/// tens to millions, and held inline they made every row 464 bytes instead of 128, copied
+/// twice on every sample's way out of the step.
+#[derive(Clone, Debug, PartialEq)]
 pub struct MonitorRow {
     /// Time (s).
     pub time: f64,
@@ -117,7 +121,7 @@ pub struct MonitorRow {
     pub level: Level,
     /// Set when the level changed at this sample, or when an episode opened as `unknown`
     /// got its mode.
-    pub event: Option<Event>,
+    pub event: Option<Box<Event>>,
     /// Extra column: combined scaled residual e.
     pub e: f64,
     /// Extra column: re-identified Kd change (percent).
@@ -131,10 +135,10 @@ pub struct MonitorRow {
     pub trip: Option<u32>,
     /// Set at the row where a trip is reported: the trip and its mean residuals (the rows
     /// of [`TripRowWriter`]).
-    pub trip_end: Option<TripSummary>,
+    pub trip_end: Option<Box<TripSummary>>,
     /// An outage or door event of [`crate::operation`] handed out with this row (at most
     /// one per row; the rest wait for the next rows). Not written to the CSV.
-    pub operation: Option<OperationEvent>,
+    pub operation: Option<Box<OperationEvent>>,
 }
 
 /// Runs the streaming monitor of `method` over a whole series with no saved state: one row
@@ -199,8 +203,14 @@ impl Analysis {
             }
         }
         let threshold = run(model, &series.samples, Method::Threshold);
-        let events = pinn.iter().filter_map(|r| r.event).collect();
-        let operation_events = pinn.iter().filter_map(|r| r.operation).collect();
+        let events = pinn
+            .iter()
+            .filter_map(|r| r.event.as_deref().copied())
+            .collect();
+        let operation_events = pinn
+            .iter()
+            .filter_map(|r| r.operation.as_deref().copied())
+            .collect();
         Analysis {
             features,
             pinn,
@@ -546,7 +556,7 @@ impl Monitor {
             self.st.operation.trip(t, self.model.operation.as_ref());
         }
         let mut row = self.step(&row, trip);
-        row.operation = self.st.operation.take_event();
+        row.operation = self.st.operation.take_event().map(Box::new);
         Some(row)
     }
 
@@ -572,7 +582,7 @@ impl Monitor {
                 self.st.operation.trip(t, self.model.operation.as_ref());
             }
             let mut r = self.step(row, trip);
-            r.operation = self.st.operation.take_event();
+            r.operation = self.st.operation.take_event().map(Box::new);
             out.push(r);
         }
         // The tracker drops a trip still running; so does the evidence.
@@ -614,13 +624,16 @@ impl Monitor {
             .sensor
             .verdict(&self.model.sensor, x.time, st.alarm.sensor());
         st.alarm.set_sensor(sensor);
-        let mut row = match st.method {
-            Method::Pinn => self.pinn_row(x, &res, before),
-            Method::Threshold => self.threshold_row(x, &res),
-        };
-        let mode = (row.level > Level::Normal).then_some(self.st.episode_mode);
-        row.trip_end = summary.map(|s| TripSummary { mode, ..s });
-        row
+        match st.method {
+            Method::Pinn => self.pinn_row(x, &res, before, summary),
+            Method::Threshold => self.threshold_row(x, &res, summary),
+        }
+    }
+
+    /// The trip summary of a row at `level`, with the open episode's mode above `normal`.
+    fn trip_end(&self, summary: Option<TripSummary>, level: Level) -> Option<Box<TripSummary>> {
+        let mode = (level > Level::Normal).then_some(self.st.episode_mode);
+        summary.map(|s| Box::new(TripSummary { mode, ..s }))
     }
 
     /// Closes the evidence of a reported trip and feeds the risk stage when plausible.
@@ -654,25 +667,40 @@ impl Monitor {
     }
 
     /// The row of the paper's method; `before` is the level before this sample.
-    fn pinn_row(&mut self, x: &FeatureRow, res: &Residuals, before: Level) -> MonitorRow {
+    fn pinn_row(
+        &mut self,
+        x: &FeatureRow,
+        res: &Residuals,
+        before: Level,
+        summary: Option<TripSummary>,
+    ) -> MonitorRow {
         let cfg = &self.model.risk;
         let st = &mut self.st;
-        let mut a = st.risk.last;
         let key = (st.risk.trips, st.sensor.newest_zero_witness());
-        a.decision.mode = match self.witness {
+        let mode = match self.witness {
             Some((k, mode)) if k == key => mode,
             _ => {
-                let mode = witnessed_mode(&a.decision, &st.sensor, &self.model.sensor);
+                let mode = witnessed_mode(&st.risk.last.decision, &st.sensor, &self.model.sensor);
                 self.witness = Some((key, mode));
                 mode
             }
         };
+        // The assessment with the witness's mode, copied only when the witness changed it.
+        let witnessed;
+        let a = if mode == st.risk.last.decision.mode {
+            &st.risk.last
+        } else {
+            let mut w = st.risk.last;
+            w.decision.mode = mode;
+            witnessed = w;
+            &witnessed
+        };
         st.alarm.update_machine(a.risk, a.decision.ratio, cfg);
         let level = st.alarm.level();
         let mut event = None;
-        if update_episode(&mut st.episode_mode, before, &st.alarm, &a, cfg) {
+        if update_episode(&mut st.episode_mode, before, &st.alarm, a, cfg) {
             let evidence =
-                Evidence::from_assessment(&a, self.scale, st.risk.trips, st.implausible_trips);
+                Evidence::from_assessment(a, self.scale, st.risk.trips, st.implausible_trips);
             // A `sensor` the channel checks do not hold is the isolation's: the load cell's
             // zero explained the machine evidence best.
             let channel = (st.episode_mode == FaultMode::Sensor)
@@ -683,14 +711,14 @@ impl Monitor {
                             .then_some(crate::ingest::Signal::Load))
                 })
                 .flatten();
-            event = Some(Event {
+            event = Some(Box::new(Event {
                 time: x.time,
                 level,
                 mode: st.episode_mode,
                 risk: a.risk,
                 channel,
                 evidence,
-            });
+            }));
             st.events = st.events.saturating_add(1);
             if level == Level::Normal {
                 st.episode_since = f64::NAN;
@@ -713,12 +741,17 @@ impl Monitor {
             friction_drift_pct: 100.0 * a.drift[FRICTION],
             brake_drag_n: self.scale.brake_n * a.drift[BRAKE],
             trip: x.trip,
-            trip_end: None,
+            trip_end: self.trip_end(summary, level),
             operation: None,
         }
     }
 
-    fn threshold_row(&mut self, x: &FeatureRow, res: &Residuals) -> MonitorRow {
+    fn threshold_row(
+        &mut self,
+        x: &FeatureRow,
+        res: &Residuals,
+        summary: Option<TripSummary>,
+    ) -> MonitorRow {
         let v = self
             .st
             .baseline
@@ -735,13 +768,13 @@ impl Monitor {
             risk_brake: 0.0,
             risk_friction: v.risk_friction,
             level: v.level,
-            event: v.event,
+            event: v.event.map(Box::new),
             e: res.e,
             kd_drift_pct: f64::NAN,
             friction_drift_pct: f64::NAN,
             brake_drag_n: f64::NAN,
             trip: x.trip,
-            trip_end: None,
+            trip_end: self.trip_end(summary, v.level),
             operation: None,
         }
     }
@@ -807,8 +840,8 @@ mod tests {
             assert_eq!(csv(&rows), csv(&whole), "{method:?}");
             let events = |r: &[MonitorRow]| {
                 r.iter()
-                    .filter_map(|r| r.event)
-                    .map(|e| e.to_json_line())
+                    .filter_map(|r| r.event.as_deref())
+                    .map(Event::to_json_line)
                     .collect::<Vec<_>>()
             };
             assert_eq!(events(&rows), events(&whole));
@@ -887,7 +920,10 @@ mod tests {
         let mut m = Monitor::new(&model, Method::Pinn);
         let mut rows: Vec<MonitorRow> = xs.iter().filter_map(|x| m.push(x)).collect();
         rows.extend(m.finish());
-        let events: Vec<Event> = rows.iter().filter_map(|r| r.event).collect();
+        let events: Vec<Event> = rows
+            .iter()
+            .filter_map(|r| r.event.as_deref().copied())
+            .collect();
         assert!(m.state_ref().implausible_trips > 0);
         let first = events
             .first()
@@ -929,7 +965,7 @@ mod tests {
         let xs = samples(0.5, 9, Some(fault));
         let events: Vec<Event> = run_all(&model, Method::Pinn, &xs)
             .iter()
-            .filter_map(|r| r.event)
+            .filter_map(|r| r.event.as_deref().copied())
             .collect();
         let first = events
             .first()

@@ -116,14 +116,14 @@ fn a_drive_off_at_rest_with_a_constant_k_cell_keeps_its_parameters_and_its_quiet
     };
     let raised: Vec<_> = watch(83, Scenario::healthy())
         .iter()
-        .filter_map(|r| r.event)
+        .filter_map(|r| r.event.as_deref().copied())
         .collect();
     assert!(raised.is_empty(), "healthy data raised {raised:?}");
     let onset = 4.0 * DAY;
     let motor = Scenario::new(FaultMode::Motor, onset, Ramp::Step, onset, 1.0).expect("valid");
     let first = watch(84, motor)
         .iter()
-        .filter_map(|r| r.event)
+        .filter_map(|r| r.event.as_deref().copied())
         .find(|ev| ev.level >= Level::Advisory)
         .expect("the motor step raises an advisory");
     println!(

@@ -62,7 +62,10 @@ fn healthy_days_stay_normal_and_a_motor_fault_is_named() {
         Method::Pinn,
         &telemetry(&plant, 2.0, 3.0, 73, Scenario::healthy()),
     );
-    let raised: Vec<_> = healthy.iter().filter_map(|r| r.event).collect();
+    let raised: Vec<_> = healthy
+        .iter()
+        .filter_map(|r| r.event.as_deref().copied())
+        .collect();
     assert!(raised.is_empty(), "healthy data raised {raised:?}");
 
     // Kd +10 % from day 3.5 on (one day after the start of the monitored span).
@@ -71,7 +74,10 @@ fn healthy_days_stay_normal_and_a_motor_fault_is_named() {
         Scenario::new(FaultMode::Motor, onset, Ramp::Step, onset, 1.0).expect("a valid scenario");
     let xs = telemetry(&plant, 2.0, 3.0, 74, motor);
     let rows = run(&model, Method::Pinn, &xs);
-    let events: Vec<_> = rows.iter().filter_map(|r| r.event).collect();
+    let events: Vec<_> = rows
+        .iter()
+        .filter_map(|r| r.event.as_deref().copied())
+        .collect();
     let first = events
         .iter()
         .find(|e| e.level >= Level::Advisory)
@@ -105,7 +111,7 @@ fn healthy_days_stay_normal_and_a_motor_fault_is_named() {
     let base = run(&model, Method::Threshold, &xs);
     let activations = base
         .iter()
-        .filter_map(|r| r.event)
+        .filter_map(|r| r.event.as_deref().copied())
         .filter(|e| e.level == Level::Alarm)
         .count();
     eprintln!(

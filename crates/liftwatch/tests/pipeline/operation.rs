@@ -113,12 +113,14 @@ fn model() -> &'static FittedModel {
 }
 
 fn operation_events(rows: &[MonitorRow]) -> Vec<OperationEvent> {
-    rows.iter().filter_map(|r| r.operation).collect()
+    rows.iter()
+        .filter_map(|r| r.operation.as_deref().copied())
+        .collect()
 }
 
 fn machine_events(rows: &[MonitorRow]) -> Vec<String> {
     rows.iter()
-        .filter_map(|r| r.event)
+        .filter_map(|r| r.event.as_deref().copied())
         .map(|e| e.to_json_line())
         .collect()
 }
@@ -245,7 +247,7 @@ fn slowly_slowing_doors_raise_the_door_advisory_after_the_onset() {
     );
     let line = rows
         .iter()
-        .find_map(|r| r.operation)
+        .find_map(|r| r.operation.as_deref().copied())
         .unwrap()
         .to_json_line();
     assert!(line.contains(r#""mode":"door""#) && line.contains(r#""level":"advisory""#));

@@ -169,7 +169,7 @@ fn csv(rows: &[MonitorRow]) -> String {
 
 fn events(rows: &[MonitorRow]) -> Vec<String> {
     rows.iter()
-        .filter_map(|r| r.event)
+        .filter_map(|r| r.event.as_deref().copied())
         .map(|e| e.to_json_line())
         .collect()
 }

@@ -16,6 +16,9 @@ an r_force, i.e. moving), PyTorch's from its own features. Also given weighted b
 interpolation weights (same weights for both, from the reference's features).
 
 Usage: LIFTWATCH=target/release/liftwatch python3 bench/compare.py [--runs 3] [--epochs 20000]
+
+With --infer it compares the monitor's step with PyTorch's batched inference instead
+(infer_main, bench/README.md).
 """
 
 import argparse
@@ -83,6 +86,63 @@ def interpolation_weights(tdir, elevator):
     return {round(float(t), 3): float(x) for t, x, s in zip(f["t"], w, f["s"]) if s != 0}
 
 
+def infer_main(args, lw):
+    """The monitor's step beside PyTorch's batched inference on the same samples and model:
+    3 simulated days of a 1000 kg, 1.75 m/s, 26-floor car (seed 7) fitted by liftwatch, then
+    2 other days (seed 1) monitored, the monitor bench's setting. liftwatch: the whole
+    in-memory step of `cargo bench --bench monitor` (features, residuals, trip evidence, risk,
+    levels, sensor and operation checks; one sample at a time, as it streams). PyTorch: the
+    network, physics and residuals over all samples at once, float32 and float64."""
+    ref = os.path.join(HERE, "pytorch_reference.py")
+    work = tempfile.mkdtemp(prefix="liftwatch-infer-")
+    car = ["--rated-load", "1000", "--rated-speed", "1.75", "--floors", "26"]
+    run([lw, "simulate", "--days", "3", "--seed", "7", "--out", "train", "-q"] + car, None, work)
+    run([lw, "simulate", "--days", "2", "--seed", "1", "--out", "mon", "-q"] + car, None, work)
+    run([lw, "fit", "--input", "train/aligned.csv", "--elevator", "train/elevator.toml",
+         "--out", "model.json", "-q"], None, work)
+    env = dict(os.environ, MONITOR_BENCH_MODEL=os.path.join(work, "model.json"),
+               MONITOR_BENCH_INPUT=os.path.join(work, "mon/aligned.csv"))
+    cargo = ["cargo", "bench", "-q", "-p", "liftwatch", "--bench", "monitor"]
+    p = subprocess.run(cargo + ["--no-run"], cwd=REPO, env=env, capture_output=True, text=True)
+    if p.returncode != 0:
+        sys.exit(f"cargo bench --no-run failed:\n{p.stderr}")
+    res = {"liftwatch": [], "float32": [], "float64": [], "float32 net": [], "float64 net": []}
+    for k in range(args.runs):
+        cmd = cargo if not shutil.which("taskset") else ["taskset", "-c", str(args.cpu)] + cargo
+        p = subprocess.run(cmd, cwd=REPO, env=dict(env, OMP_NUM_THREADS="1"),
+                           capture_output=True, text=True)
+        line = [x for x in p.stdout.splitlines() if x.startswith("monitor step on file")]
+        if p.returncode != 0 or not line:
+            sys.exit(f"the monitor bench failed:\n{p.stdout}{p.stderr}")
+        res["liftwatch"].append(float(line[0].split(": ")[1].split(" M")[0]) * 1e6)
+        out, _, _ = run([args.python, ref, "--infer", "model.json", "--input", "mon/aligned.csv",
+                         "--elevator", "mon/elevator.toml"], args.cpu, work)
+        j = json.loads(out.strip().splitlines()[-1])
+        for dt in ("float32", "float64"):
+            res[dt].append(j[dt]["samples_per_s"])
+            res[dt + " net"].append(j[dt]["network_only_samples_per_s"])
+        print(f"round {k + 1}/{args.runs} done", file=sys.stderr, flush=True)
+    med = {k: statistics.median(v) for k, v in res.items()}
+    lw_rms, _, _ = lw_heldout(lw, "model.json", "mon", work, {})
+    print(f"\nmedians of {args.runs} interleaved rounds, one thread each, pinned to CPU "
+          f"{args.cpu}; {j['samples']} samples, {j['moving']} moving; RMS r_U over moving "
+          f"samples (the same model on the same samples): liftwatch {lw_rms:.3f} V, PyTorch "
+          f"{j['float64']['rms_u_v_moving']:.3f} V")
+    print("| | M samples/s | liftwatch's step / this |")
+    print("|---|---|---|")
+    names = {"liftwatch": "liftwatch, whole monitor step (streaming, one sample at a time)",
+             "float32": "PyTorch float32, network + physics + residuals (batched)",
+             "float64": "PyTorch float64, network + physics + residuals (batched)",
+             "float32 net": "PyTorch float32, network alone (batched)",
+             "float64 net": "PyTorch float64, network alone (batched)"}
+    for k, name in names.items():
+        print(f"| {name} | {med[k] / 1e6:.2f} | {med['liftwatch'] / med[k]:.2f}x |")
+    if args.keep:
+        print(f"kept {work}")
+    else:
+        shutil.rmtree(work)
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--runs", type=int, default=3)
@@ -94,10 +154,14 @@ def main():
     ap.add_argument("--python", default=sys.executable)
     ap.add_argument("--keep", action="store_true", help="keep the temporary directory")
     ap.add_argument("--json", action="store_true", help="also print every run as JSON lines")
+    ap.add_argument("--infer", action="store_true",
+                    help="the monitor's step beside PyTorch's batched inference instead of the fit")
     args = ap.parse_args()
     lw = os.path.abspath(os.environ.get("LIFTWATCH", os.path.join(REPO, "target/release/liftwatch")))
     if not os.path.exists(lw):
         sys.exit(f"no liftwatch binary at {lw}: build it (cargo build --release) or set LIFTWATCH")
+    if args.infer:
+        return infer_main(args, lw)
     adam_runs = args.runs if args.adam_runs is None else args.adam_runs
     ref = os.path.join(HERE, "pytorch_reference.py")
     work = tempfile.mkdtemp(prefix="liftwatch-bench-")

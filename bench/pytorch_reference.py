@@ -405,9 +405,96 @@ def interpolation_weights(f, e, ke_prior):
     return sig * sig / (sig * sig + ev * ev + eu * eu)
 
 
+def infer(args, torch):
+    """Batched inference of a liftwatch model on every sample of `--input`, as the paper's
+    PyTorch would run its monitor: the network over all samples at once (inputs held to the
+    model's box), the physics, r_U, r_F and the combined e. Times the inference alone (the
+    tensors are built first), median of `--repeats`, in float32 and float64."""
+    with open(args.infer) as fh:
+        m = json.load(fh)
+    e = read_elevator(args.elevator)
+    d = read_aligned(args.input)
+    f = features(d, e, m["features"]["load_cell_platform_ratio"])
+    n = len(f["t"])
+    th = m["parameters"]
+    net = m["net"]
+    w = np.asarray(net["weights"], dtype=np.float64)
+    # liftwatch's layout (model/net.rs): W1 16x3, b1, W2 16x16, b2, W3 2x16, b3, row-major.
+    shapes = [(16, 3), (16,), (16, 16), (16,), (2, 16), (2,)]
+    parts, k = [], 0
+    for sh in shapes:
+        size = int(np.prod(sh))
+        parts.append(w[k:k + size].reshape(sh))
+        k += size
+    # The network's inputs as liftwatch's net_inputs: (0, lambda to 0.001, 0) at rest.
+    moving = f["s"] != 0
+    lam = np.where(moving, f["lam"], np.round(f["lam"] * 1000.0) / 1000.0)
+    x = np.stack([np.where(moving, f["v"], 0.0), lam, np.where(moving, f["a"], 0.0)], 1)
+    side = (np.sign(np.where(moving, f["v"], 0.0)) + 1).astype(np.int64)   # box -1, 0, +1
+    boxes = np.asarray(net["domain"]["boxes"], dtype=np.float64)             # [side][input][lo, hi]
+    sig_u, sig_f = m["scales"]["sigma_u_v"], m["scales"]["sigma_f_n"]
+    m_r = e["m_r"]
+    out = {"samples": n, "moving": int(moving.sum()), "repeats": args.repeats}
+    for name, dt in (("float32", torch.float32), ("float64", torch.float64)):
+        T = lambda a: torch.tensor(np.asarray(a), dtype=dt)
+        W = [T(p) for p in parts]
+        lo, hi = T(boxes[:, :, 0])[torch.tensor(side)], T(boxes[:, :, 1])[torch.tensor(side)]
+        xin, s, v, a, q, u = T(x), T(f["s"]), T(f["v"]), T(f["a"]), T(f["q"]), T(f["u"])
+        lam_t = T(f["lam"])
+        in_scale, out_scale = T(net["input_scale"]), T(net["output_scale"])
+        P = {k2: float(v2) for k2, v2 in th.items()}
+        one, zero = torch.ones_like(s), torch.zeros_like(s)
+
+        def step():
+            xx = torch.minimum(torch.maximum(xin, lo), hi) / in_scale
+            h = torch.tanh(xx @ W[0].T + W[1])
+            h = torch.tanh(h @ W[2].T + W[3])
+            dlt = (h @ W[4].T + W[5]) * out_scale
+            f_pred = ((P["m0"] + lam_t * m_r) * a
+                      + (P["delta_m"] + lam_t * m_r + P["m_rope"] * q) * G
+                      + P["f_c"] * s + P["c_visc"] * v)
+            phi = torch.where(s > 0, one, torch.where(s < 0, one * P["alpha_down"], zero))
+            base = P["u0"] + P["ke"] * v.abs()
+            r_u = u - (base + phi * P["kd"] * f_pred * s + dlt[:, 0])
+            den = torch.where(s != 0, phi * P["kd"] * s, one)
+            r_f = torch.where(s != 0, f_pred + dlt[:, 1] - (u - base) / den, zero)
+            e_all = torch.sqrt(((r_u / sig_u) ** 2 + (r_f / sig_f) ** 2) / 2.0)
+            return r_u, r_f, e_all
+
+        def network():
+            xx = torch.minimum(torch.maximum(xin, lo), hi) / in_scale
+            h = torch.tanh(xx @ W[0].T + W[1])
+            h = torch.tanh(h @ W[2].T + W[3])
+            return (h @ W[4].T + W[5]) * out_scale
+
+        def median_s(fn):
+            times = []
+            with torch.no_grad():
+                fn()  # warm-up
+                for _ in range(args.repeats):
+                    t0 = time.perf_counter()
+                    fn()
+                    times.append(time.perf_counter() - t0)
+            times.sort()
+            return times[len(times) // 2]
+
+        full, net_only = median_s(step), median_s(network)
+        with torch.no_grad():
+            r_u = step()[0].numpy()
+        ok = moving & np.isfinite(r_u)
+        out[name] = {
+            "seconds": full,
+            "samples_per_s": n / full,
+            "network_only_samples_per_s": n / net_only,
+            "rms_u_v_moving": float(np.sqrt(np.mean(r_u[ok].astype(np.float64) ** 2))),
+        }
+    print(json.dumps(out))
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--input", required=True, help="training aligned.csv")
+    ap.add_argument("--input", required=True,
+                    help="training aligned.csv (with --infer: the monitored one)")
     ap.add_argument("--elevator", required=True, help="elevator.toml")
     ap.add_argument("--test", action="append", default=[],
                     help="held-out directory holding aligned.csv (repeatable)")
@@ -425,11 +512,16 @@ def main():
     ap.add_argument("--w-p", type=float, default=1.0)
     ap.add_argument("--w-n", type=float, default=0.2)
     ap.add_argument("--threads", type=int, default=1)
+    ap.add_argument("--infer", metavar="MODEL",
+                    help="time batched inference of this liftwatch model on --input instead of fitting")
+    ap.add_argument("--repeats", type=int, default=21, help="timed inference passes (--infer)")
     args = ap.parse_args()
 
     import torch
     torch.set_num_threads(args.threads)
     torch.set_default_dtype(torch.float64)
+    if args.infer:
+        return infer(args, torch)
 
     cpu0, wall0 = time.process_time(), time.perf_counter()
     e = read_elevator(args.elevator)

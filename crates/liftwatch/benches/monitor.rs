@@ -7,10 +7,16 @@
 //!
 //! Run with `cargo bench -p liftwatch --bench monitor` (release profile). The telemetry is
 //! two simulated days of a 1000 kg, 1.75 m/s, 26-floor elevator (seed 1).
+//!
+//! With `MONITOR_BENCH_MODEL=model.json MONITOR_BENCH_INPUT=aligned.csv` it times the step of
+//! that model on that file instead (read into memory first) and prints one line: what
+//! `bench/compare.py --infer` sets beside PyTorch's batched inference on the same samples.
 
 use std::hint::black_box;
+use std::path::Path;
 use std::time::Instant;
 
+use liftwatch::align::{read_series, AlignConfig};
 use liftwatch::features::{FeatureConfig, FeatureTracker};
 use liftwatch::fit::FittedModel;
 use liftwatch::model::{HybridModel, PhysParams, ResidualNet, ResidualScales, TrainConfig};
@@ -47,7 +53,57 @@ fn median3(mut f: impl FnMut() -> f64) -> f64 {
     t[1]
 }
 
+/// Seconds of the whole monitor step of `method` over `samples` (median of three runs), as
+/// a fresh monitor runs it: every sample pushed, the held rows finished.
+fn step_secs(model: &FittedModel, method: Method, samples: &[Sample]) -> f64 {
+    median3(|| {
+        let start = Instant::now();
+        let mut m = Monitor::new(model, method);
+        let mut acc = 0.0;
+        for x in samples {
+            if let Some(r) = m.push(x) {
+                acc += r.risk;
+            }
+        }
+        black_box(acc);
+        black_box(m.finish());
+        start.elapsed().as_secs_f64()
+    })
+}
+
+/// The step of a model file on an aligned file, for `bench/compare.py --infer`.
+fn step_on_files(model: &str, input: &str) {
+    let model = liftwatch::file::load(Path::new(model)).expect("MONITOR_BENCH_MODEL loads");
+    // Aligned at the model's step, as `liftwatch monitor` aligns.
+    let align = AlignConfig {
+        step_s: model.step_s.unwrap_or(AlignConfig::default().step_s),
+        ..AlignConfig::default()
+    };
+    let (series, _) = read_series(Path::new(input), &align).expect("MONITOR_BENCH_INPUT reads");
+    let samples = series.samples;
+    let secs = step_secs(&model, Method::Pinn, &samples);
+    let n = samples.len() as f64;
+    let moving = samples
+        .iter()
+        .filter(|x| x.speed.abs() > model.features.moving_threshold_mps)
+        .count() as f64;
+    println!(
+        "monitor step on file: {:.2} M samples/s, {:.0} ns/sample ({} samples, {:.1} % moving)",
+        n / secs / 1e6,
+        secs / n * 1e9,
+        samples.len(),
+        100.0 * moving / n
+    );
+}
+
 fn main() {
+    if let (Ok(model), Ok(input)) = (
+        std::env::var("MONITOR_BENCH_MODEL"),
+        std::env::var("MONITOR_BENCH_INPUT"),
+    ) {
+        step_on_files(&model, &input);
+        return;
+    }
     let elevator = Elevator::new(1000.0, 1.75, 26);
     let samples: Vec<Sample> = simulate(&SimConfig::new(elevator.clone(), 2.0, 1))
         .expect("a valid simulation")
@@ -69,19 +125,7 @@ fn main() {
         (Method::Pinn, &fitted, "Pinn, fitted and calibrated model"),
         (Method::Threshold, &model, "Threshold"),
     ] {
-        let secs = median3(|| {
-            let start = Instant::now();
-            let mut m = Monitor::new(model, method);
-            let mut acc = 0.0;
-            for x in &samples {
-                if let Some(r) = m.push(x) {
-                    acc += r.risk;
-                }
-            }
-            black_box(acc);
-            black_box(m.finish());
-            start.elapsed().as_secs_f64()
-        });
+        let secs = step_secs(model, method, &samples);
         println!(
             "monitor step ({name}): {:.1} M samples/s, {:.0} ns/sample ({} samples)",
             n / secs / 1e6,

@@ -111,7 +111,7 @@ const INTEGRAL_FROM: f64 = 4_503_599_627_370_496.0;
 /// standstill sample): y minus its truncation is exact, so comparing it with ½ decides as
 /// `round` does.
 fn round_half_away(y: f64) -> f64 {
-    if !(y.abs() < INTEGRAL_FROM) {
+    if y.is_nan() || y.abs() >= INTEGRAL_FROM {
         return y;
     }
     let t = y as i64 as f64;

@@ -97,73 +97,8 @@ pub fn net_inputs(x: &FeatureRow) -> (f64, f64, f64) {
     if x.s == 0 {
         // λ to 0.1 % of rated load: the door-closed reference is a running mean that moves in
         // the last digits with every sample; the correction does not.
-        (0.0, round_half_away(x.lambda * 1000.0) / 1000.0, 0.0)
+        (0.0, (x.lambda * 1000.0).round() / 1000.0, 0.0)
     } else {
         (x.v, x.lambda, x.a)
-    }
-}
-
-/// 2⁵²: from it on in magnitude every float is an integer.
-const INTEGRAL_FROM: f64 = 4_503_599_627_370_496.0;
-
-/// `y.round()` (half away from zero, signed zero kept, NaN stays) without the call that
-/// `round` is on the baseline x86-64 target (1.5 % of the monitor's step in `perf`, once per
-/// standstill sample): y minus its truncation is exact, so comparing it with ½ decides as
-/// `round` does.
-fn round_half_away(y: f64) -> f64 {
-    if y.is_nan() || y.abs() >= INTEGRAL_FROM {
-        return y;
-    }
-    let t = y as i64 as f64;
-    let f = y - t;
-    let r = if f >= 0.5 {
-        t + 1.0
-    } else if f <= -0.5 {
-        t - 1.0
-    } else {
-        t
-    };
-    r.copysign(y)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::round_half_away;
-    use crate::rng::Rng;
-
-    #[test]
-    fn round_half_away_is_round_to_the_bit() {
-        let mut rng = Rng::new(5);
-        let edges = [
-            0.0,
-            -0.0,
-            0.5,
-            -0.5,
-            0.499_999_999_999_999_94,
-            -0.499_999_999_999_999_94,
-            1.5,
-            2.5,
-            -2.5,
-            4_503_599_627_370_495.5,
-            4_503_599_627_370_496.0,
-            -4_503_599_627_370_497.0,
-            1e300,
-            f64::INFINITY,
-            f64::NEG_INFINITY,
-            f64::MIN_POSITIVE,
-        ];
-        let random = (0..100_000).map(|i| {
-            // Loads on the 0.001 grid and off it, halves among them, both signs.
-            let y = rng.uniform(-2_000.0, 2_000.0);
-            match i % 3 {
-                0 => y,
-                1 => y.trunc() + 0.5,
-                _ => (y * 1000.0).round() / 1000.0 * 1000.0,
-            }
-        });
-        for y in edges.into_iter().chain(random) {
-            assert_eq!(round_half_away(y).to_bits(), y.round().to_bits(), "{y:e}");
-        }
-        assert!(round_half_away(f64::NAN).is_nan());
     }
 }

@@ -98,7 +98,12 @@ impl Rounded {
         let mut buf = [0u8; 32];
         let mut i = buf.len();
         let mut m = self.n;
-        for _ in 0..self.dec {
+        for _ in 0..self.dec / 2 {
+            i -= 2;
+            put_pair(&mut buf, i, m % 100);
+            m /= 100;
+        }
+        if self.dec % 2 == 1 {
             i -= 1;
             buf[i] = b'0' + (m % 10) as u8;
             m /= 10;
@@ -179,15 +184,37 @@ impl FixedColumn {
 /// Writes the digits of `m` into `buf` right to left, ending before `end`; returns where
 /// they start.
 fn put_whole(buf: &mut [u8; 32], mut end: usize, mut m: u64) -> usize {
-    loop {
-        end -= 1;
-        buf[end] = b'0' + (m % 10) as u8;
-        m /= 10;
-        if m == 0 {
-            return end;
-        }
+    while m >= 100 {
+        end -= 2;
+        put_pair(buf, end, m % 100);
+        m /= 100;
     }
+    if m >= 10 {
+        end -= 2;
+        put_pair(buf, end, m);
+    } else {
+        end -= 1;
+        buf[end] = b'0' + m as u8;
+    }
+    end
 }
+
+/// The two digits of `r` (below 100) at `buf[at..at + 2]`, from [`DIGIT_PAIRS`]: half the
+/// dependent divisions of peeling one digit at a time.
+#[inline]
+fn put_pair(buf: &mut [u8; 32], at: usize, r: u64) {
+    let k = 2 * r as usize;
+    buf[at] = DIGIT_PAIRS[k];
+    buf[at + 1] = DIGIT_PAIRS[k + 1];
+}
+
+/// "00", "01", … "99" in one string.
+const DIGIT_PAIRS: &[u8; 200] = b"\
+0001020304050607080910111213141516171819\
+2021222324252627282930313233343536373839\
+4041424344454647484950515253545556575859\
+6061626364656667686970717273747576777879\
+8081828384858687888990919293949596979899";
 
 /// Appends the decimal digits of `n`.
 pub fn push_u64(out: &mut Vec<u8>, n: u64) {

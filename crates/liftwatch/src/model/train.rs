@@ -52,7 +52,7 @@ use crate::model::loss::{
     HeldTheta, LossStats, LossWeights, Objective, Obs, ParamMap, Prior, N_UNKNOWNS,
 };
 use crate::model::net::{InputDomain, ResidualNet};
-use crate::model::optim::gauss_newton::VoltageFit;
+use crate::model::optim::gauss_newton::{SpeedNoise, VoltageFit};
 use crate::model::optim::{adam, lbfgs, Stop};
 use crate::model::physics::{PhysParams, N_PHYS};
 use crate::model::ResidualScales;
@@ -608,7 +608,7 @@ fn fit_physics(
             rated_load_kg: m_r,
             sigma_u,
             w_p,
-            speed_noise_mps: 0.0,
+            speed_noise: SpeedNoise::NONE,
         };
         z = problem.solve(z, &mut iteration, &mut |it, z| path.push((it, *z)))?;
         let p = map.theta(&z);
@@ -658,7 +658,7 @@ fn noise_corrected(
         rated_load_kg,
         sigma_u: stage1.sigma_u,
         w_p,
-        speed_noise_mps,
+        speed_noise: SpeedNoise::of(data, speed_noise_mps),
     };
     let z = problem.solve(stage1.z, &mut 0, &mut |_, _| {})?;
     Ok(Some(map.theta(&z)))

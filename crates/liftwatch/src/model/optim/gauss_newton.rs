@@ -68,8 +68,46 @@ pub struct VoltageFit<'a> {
     pub sigma_u: f64,
     /// w_P: weight of the prior.
     pub w_p: f64,
-    /// σ_v: noise of the speed reading (m/s), 0 for none; see the module's notes.
-    pub speed_noise_mps: f64,
+    /// The speed reading's noise and what it acts on ([`SpeedNoise::NONE`] for none); see the
+    /// module's notes.
+    pub speed_noise: SpeedNoise,
+}
+
+/// σ_v, the noise of the speed reading (m/s), with Σ w of the moving observations up (+1)
+/// and down (−1): the noise's term is the same for every sample of one direction, so the
+/// sums, which θ does not move, are taken once and not at every evaluation of the cost.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SpeedNoise {
+    sigma_mps: f64,
+    weights: [(i8, f64); 2],
+}
+
+impl SpeedNoise {
+    /// No speed noise: the plain least squares.
+    pub const NONE: SpeedNoise = SpeedNoise {
+        sigma_mps: 0.0,
+        weights: [(1, 0.0), (-1, 0.0)],
+    };
+
+    /// σ_v = `sigma_mps` on the moving observations of `data`; [`SpeedNoise::NONE`], without
+    /// a pass over the data, when it is not positive.
+    pub fn of(data: &[Obs], sigma_mps: f64) -> SpeedNoise {
+        if sigma_mps.is_nan() || sigma_mps <= 0.0 {
+            return SpeedNoise::NONE;
+        }
+        let (mut up, mut down) = (0.0, 0.0);
+        for o in data {
+            match o.s {
+                1 => up += o.w,
+                -1 => down += o.w,
+                _ => {}
+            }
+        }
+        SpeedNoise {
+            sigma_mps,
+            weights: [(1, up), (-1, down)],
+        }
+    }
 }
 
 impl VoltageFit<'_> {
@@ -140,30 +178,18 @@ impl VoltageFit<'_> {
         d - self.speed_noise_share(&p) + self.w_p * self.prior.penalty(&p)
     }
 
-    /// Σ_i w_i·(σ_v·D(s_i; θ)/σ_U)²: the speed noise's expected share of the cost; 0, and no
-    /// pass over the data, without a speed noise.
+    /// Σ_i w_i·(σ_v·D(s_i; θ)/σ_U)²: the speed noise's expected share of the cost; 0
+    /// without a speed noise.
     fn speed_noise_share(&self, p: &crate::model::physics::PhysParams) -> f64 {
-        if self.speed_noise_mps <= 0.0 {
+        let noise = &self.speed_noise;
+        if noise.sigma_mps <= 0.0 {
             return 0.0;
         }
-        self.moving_weights()
+        noise
+            .weights
             .into_iter()
-            .map(|(s, w)| w * (self.speed_noise_mps * p.du_dspeed(s) / self.sigma_u).powi(2))
+            .map(|(s, w)| w * (noise.sigma_mps * p.du_dspeed(s) / self.sigma_u).powi(2))
             .sum()
-    }
-
-    /// Σ w of the moving observations, up (+1) and down (−1): the speed noise's term is the
-    /// same for every sample of one direction.
-    fn moving_weights(&self) -> [(i8, f64); 2] {
-        let (mut up, mut down) = (0.0, 0.0);
-        for o in self.data {
-            match o.s {
-                1 => up += o.w,
-                -1 => down += o.w,
-                _ => {}
-            }
-        }
-        [(1, up), (-1, down)]
     }
 
     /// H = JᵀWJ and g = JᵀWr at z, the prior included.
@@ -182,9 +208,9 @@ impl VoltageFit<'_> {
             }
             h.add_outer(&j, o.w);
         }
-        if self.speed_noise_mps > 0.0 {
-            let scale = self.speed_noise_mps / sigma_u;
-            for (s, w) in self.moving_weights() {
+        if self.speed_noise.sigma_mps > 0.0 {
+            let scale = self.speed_noise.sigma_mps / sigma_u;
+            for (s, w) in self.speed_noise.weights {
                 let e = scale * p.du_dspeed(s);
                 let mut de = p.du_dspeed_dtheta(s);
                 for k in 0..N_PHYS {

@@ -36,7 +36,7 @@ pub fn push_fixed(out: &mut Vec<u8>, v: f64, dec: usize) {
         Fixed::Missing => {}
         Fixed::Digits(f) => {
             let (buf, i) = f.text();
-            push_bytes(out, &buf[i..]);
+            out.extend_from_slice(&buf[i..]);
         }
         Fixed::Large => {
             let dec = dec.min(9);
@@ -121,26 +121,21 @@ impl Rounded {
     }
 }
 
-/// Appends a few bytes as one copy. Pushed one by one (against the store-forwarding stall of
-/// copying bytes just stored one at a time) the row writer took 171 ns a row against 148
-/// (`cargo bench --bench monitor`): each push stores the vector's length again, and most of a
-/// row's texts are a column's kept text, stored rows before. A fixed 16-byte copy of
-/// left-aligned texts and a truncation was slower still (180 ns).
-#[inline]
-fn push_bytes(out: &mut Vec<u8>, bytes: &[u8]) {
-    out.extend_from_slice(bytes);
-}
-
 /// One column of rows written by [`push_fixed`] that keeps its last text: a value that rounds
 /// to the digits of the row before is copied instead of formatted again, and the very value
 /// of the row before is not even rounded again. Between trips most of a monitor's columns
 /// (risks, drifts) hold still from one second to the next.
+///
+/// The text goes into the line as one copy. Pushed byte by byte (against the store-forwarding
+/// stall of copying bytes just stored one at a time) the row writer took 171 ns a row against
+/// 148 (`cargo bench --bench monitor`): each push stores the vector's length again, and most
+/// of a row's texts are a column's kept text, stored rows before. A fixed 16-byte copy of
+/// left-aligned texts and a truncation was slower still (180 ns).
 #[derive(Clone, Debug)]
 pub struct FixedColumn {
     dec: usize,
     last: Option<Rounded>,
-    /// The bits of the last value whose text `text` holds (`None` when the last value was
-    /// not written from digits: NaN, infinite or too large for them).
+    /// The bits of the last value written from digits, whose text `text` holds.
     last_bits: Option<u64>,
     text: [u8; 32],
     start: usize,
@@ -160,24 +155,18 @@ impl FixedColumn {
 
     /// Appends `v` as [`push_fixed`] does, to the byte.
     pub fn push(&mut self, out: &mut Vec<u8>, v: f64) {
-        if self.last_bits == Some(v.to_bits()) {
-            push_bytes(out, &self.text[self.start..]);
-            return;
-        }
-        match Fixed::of(v, self.dec) {
-            Fixed::Digits(r) => {
-                if self.last != Some(r) {
-                    (self.text, self.start) = r.text();
-                    self.last = Some(r);
-                }
-                self.last_bits = Some(v.to_bits());
-                push_bytes(out, &self.text[self.start..]);
-            }
-            _ => {
-                self.last_bits = None;
+        if self.last_bits != Some(v.to_bits()) {
+            let Fixed::Digits(r) = Fixed::of(v, self.dec) else {
                 push_fixed(out, v, self.dec);
+                return;
+            };
+            if self.last != Some(r) {
+                (self.text, self.start) = r.text();
+                self.last = Some(r);
             }
+            self.last_bits = Some(v.to_bits());
         }
+        out.extend_from_slice(&self.text[self.start..]);
     }
 }
 

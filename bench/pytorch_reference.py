@@ -301,6 +301,23 @@ def build(torch, e, seed):
     return net, z
 
 
+def physics(t, m_r, th, s, v, lam, a, q):
+    """F, U_phys and phi of MODEL.md for theta `th` (NAMES order; tensors or floats)."""
+    dm, m0, fc, c, kd, ke, u0, ad, mrope = th
+    f = (m0 + lam * m_r) * a + (dm + lam * m_r + mrope * q) * G + fc * s + c * v
+    phi = t.where(s > 0, t.ones_like(s), t.where(s < 0, ad, t.zeros_like(s)))
+    u = u0 + ke * v.abs() + phi * kd * f * s
+    return f, u, phi
+
+
+def f_from_voltage(t, th, s, v, u, phi):
+    """F_U: the force the measured voltage implies (moving samples; 1 in the denominator at rest)."""
+    _, _, _, _, kd, ke, u0, _, _ = th
+    den = phi * kd * s
+    den = t.where(s != 0, den, t.ones_like(den))
+    return (u - u0 - ke * v.abs()) / den
+
+
 class Hybrid:
     def __init__(self, torch, e, mu, sd, sigma_u, sigma_f, seed):
         self.t = torch
@@ -331,18 +348,10 @@ class Hybrid:
         return self.net(x / self.in_scale) * self.out_scale
 
     def physics(self, th, s, v, lam, a, q):
-        dm, m0, fc, c, kd, ke, u0, ad, mrope = th
-        m_r = self.e["m_r"]
-        f = (m0 + lam * m_r) * a + (dm + lam * m_r + mrope * q) * G + fc * s + c * v
-        phi = self.t.where(s > 0, self.t.ones_like(s), self.t.where(s < 0, ad, self.t.zeros_like(s)))
-        u = u0 + ke * v.abs() + phi * kd * f * s
-        return f, u, phi
+        return physics(self.t, self.e["m_r"], th, s, v, lam, a, q)
 
     def f_from_voltage(self, th, s, v, u, phi):
-        _, _, _, _, kd, ke, u0, _, _ = th
-        den = phi * kd * s
-        den = self.t.where(s != 0, den, self.t.ones_like(den))
-        return (u - u0 - ke * v.abs()) / den
+        return f_from_voltage(self.t, th, s, v, u, phi)
 
     def loss(self, o, w_u, w_f, w_p, w_n, motor_ref=None):
         """liftwatch's objective: [sum w_i (w_U rU^2/sU^2 + w_F rF^2/sF^2 + w_N (dU^2/sU^2 +
@@ -442,30 +451,23 @@ def infer(args, torch):
         xin, s, v, a, q, u = T(x), T(f["s"]), T(f["v"]), T(f["a"]), T(f["q"]), T(f["u"])
         lam_t = T(f["lam"])
         in_scale, out_scale = T(net["input_scale"]), T(net["output_scale"])
-        P = {k2: float(v2) for k2, v2 in th.items()}
-        one, zero = torch.ones_like(s), torch.zeros_like(s)
-
-        def step():
-            xx = torch.minimum(torch.maximum(xin, lo), hi) / in_scale
-            h = torch.tanh(xx @ W[0].T + W[1])
-            h = torch.tanh(h @ W[2].T + W[3])
-            dlt = (h @ W[4].T + W[5]) * out_scale
-            f_pred = ((P["m0"] + lam_t * m_r) * a
-                      + (P["delta_m"] + lam_t * m_r + P["m_rope"] * q) * G
-                      + P["f_c"] * s + P["c_visc"] * v)
-            phi = torch.where(s > 0, one, torch.where(s < 0, one * P["alpha_down"], zero))
-            base = P["u0"] + P["ke"] * v.abs()
-            r_u = u - (base + phi * P["kd"] * f_pred * s + dlt[:, 0])
-            den = torch.where(s != 0, phi * P["kd"] * s, one)
-            r_f = torch.where(s != 0, f_pred + dlt[:, 1] - (u - base) / den, zero)
-            e_all = torch.sqrt(((r_u / sig_u) ** 2 + (r_f / sig_f) ** 2) / 2.0)
-            return r_u, r_f, e_all
+        theta = tuple(float(th[k2]) for k2 in NAMES)
+        zero = torch.zeros_like(s)
 
         def network():
             xx = torch.minimum(torch.maximum(xin, lo), hi) / in_scale
             h = torch.tanh(xx @ W[0].T + W[1])
             h = torch.tanh(h @ W[2].T + W[3])
             return (h @ W[4].T + W[5]) * out_scale
+
+        def step():
+            dlt = network()
+            f_pred, u_phys, phi = physics(torch, m_r, theta, s, v, lam_t, a, q)
+            r_u = u - u_phys - dlt[:, 0]
+            r_f = torch.where(s != 0, f_pred + dlt[:, 1] - f_from_voltage(torch, theta, s, v, u, phi),
+                              zero)
+            e_all = torch.sqrt(((r_u / sig_u) ** 2 + (r_f / sig_f) ** 2) / 2.0)
+            return r_u, r_f, e_all
 
         def median_s(fn):
             times = []

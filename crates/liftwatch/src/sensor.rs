@@ -64,6 +64,11 @@ const PARKED_MIN_SAMPLES: u32 = 60;
 /// Least parkings of a training that calibrate the zero check.
 const ZERO_MIN_PARKINGS: usize = 5;
 
+/// Parkings a monitor whose model has no healthy zero learns one from before its parked
+/// readings witness anything ([`SensorCheck::learnt_zero`]): about a day of a car's idle
+/// spells, so that the zero has seen the floors and hours the car parks at, not one night's.
+const ZERO_LEARNT_PARKINGS: usize = 16;
+
 /// The zero limit is this many times the largest healthy deviation of the training's parkings.
 const ZERO_LIMIT_MARGIN: f64 = 1.5;
 
@@ -438,6 +443,11 @@ pub struct SensorCheck {
     /// the healthy zero (percent).
     #[serde(default)]
     zero_witnesses: std::collections::VecDeque<(StateF64, StateF64)>,
+    /// The first [`ZERO_LEARNT_PARKINGS`] parkings' readings (percent), kept when the model has
+    /// no healthy zero (a training too short to park in, such as the paper's busy 3 hours):
+    /// the zero the witnesses are read against from then on ([`SensorCheck::learnt_zero`]).
+    #[serde(default)]
+    zero_learnt: Vec<StateF64>,
     /// The stop in progress, for the rest-voltage check.
     #[serde(default)]
     rest: RestVoltage,
@@ -476,6 +486,7 @@ impl SensorCheck {
             parking: Parking::new(),
             zero_drift: false,
             zero_witnesses: std::collections::VecDeque::new(),
+            zero_learnt: Vec::new(),
             rest: RestVoltage::default(),
             rest_g: [0.0; 2],
             missing_channel: None,
@@ -497,17 +508,47 @@ impl SensorCheck {
 
     /// Takes one sample into the zero check: a parking that ends sets or clears the drift.
     fn zero_check(&mut self, x: &Sample, cfg: &SensorLimits, thr: f64) {
-        let reading = self.parking.push(x, thr);
-        if let (Some(z), Some(reference)) = (reading, cfg.load_zero_pct) {
-            self.zero_drift = (z - reference).abs() > cfg.load_zero_limit_pct;
-            // `while`: a state file may hold more than the bound (written by hand, or by a
-            // build with another); it shrinks back at the next parking.
-            while self.zero_witnesses.len() >= ZERO_WITNESSES {
-                self.zero_witnesses.pop_front();
+        let Some(z) = self.parking.push(x, thr) else {
+            return;
+        };
+        let reference = match cfg.load_zero_pct {
+            Some(reference) => {
+                self.zero_drift = (z - reference).abs() > cfg.load_zero_limit_pct;
+                reference
             }
-            self.zero_witnesses
-                .push_back((StateF64(x.time), StateF64(z - reference)));
+            None => match self.learnt_zero() {
+                Some((reference, _)) => reference,
+                None => {
+                    if z.is_finite() {
+                        self.zero_learnt.push(StateF64(z));
+                    }
+                    return;
+                }
+            },
+        };
+        // `while`: a state file may hold more than the bound (written by hand, or by a
+        // build with another); it shrinks back at the next parking.
+        while self.zero_witnesses.len() >= ZERO_WITNESSES {
+            self.zero_witnesses.pop_front();
         }
+        self.zero_witnesses
+            .push_back((StateF64(x.time), StateF64(z - reference)));
+    }
+
+    /// The zero and spread (percent) of the first [`ZERO_LEARNT_PARKINGS`] parkings this
+    /// check saw, as the training would have calibrated them
+    /// ([`SensorLimits::calibrate_load_zero`]: median, robust spread, its floor); `None` until
+    /// there were as many. Only a model without a healthy zero uses it, and only for the
+    /// witnesses: the parked readings then tell a zero that moved during a window from one
+    /// that stayed, though not where the healthy zero was (a cell already off when monitoring
+    /// began reads as its own zero).
+    fn learnt_zero(&self) -> Option<(f64, f64)> {
+        if self.zero_learnt.len() < ZERO_LEARNT_PARKINGS {
+            return None;
+        }
+        let readings: Vec<f64> = self.zero_learnt.iter().map(|z| z.0).collect();
+        let sd = crate::stats::robust_sigma(readings.iter().copied()).max(ZERO_SD_FLOOR_PCT);
+        Some((crate::stats::median(&readings), sd))
     }
 
     /// When the newest parking witness ended, as bits (None before the first): it changes
@@ -517,11 +558,24 @@ impl SensorCheck {
     }
 
     /// The empty car's parked readings that ended after `since`: their mean deviation from the
-    /// healthy zero and its standard error from the healthy spread (percent); `None` when
-    /// there were none or the model has no spread to judge them by.
+    /// healthy zero and its standard error from the healthy spread (percent), or, for a model
+    /// without a healthy zero, from the zero and spread of the first parkings monitored
+    /// ([`SensorCheck::learnt_zero`]); `None` when there were none or there is no spread to
+    /// judge them by.
     pub fn load_zero_shift(&self, cfg: &SensorLimits, since: f64) -> Option<(f64, f64)> {
+        // A learnt zero is the median of a few parkings, with an error of its own beside the
+        // witnesses' (a median's variance is π/2 times a mean's): both go into the standard
+        // error. A training's zero, the median of days of parkings, is taken as exact.
+        let (sd, reference_var) = match cfg.load_zero_pct {
+            Some(_) => (cfg.load_zero_sd_pct, 0.0),
+            None => {
+                let sd = self.learnt_zero()?.1;
+                let k = self.zero_learnt.len() as f64;
+                (sd, std::f64::consts::FRAC_PI_2 * sd * sd / k)
+            }
+        };
         // NaN or 0 (a model written before the spread was kept): no witness.
-        if cfg.load_zero_sd_pct.is_nan() || cfg.load_zero_sd_pct <= 0.0 {
+        if sd.is_nan() || sd <= 0.0 {
             return None;
         }
         let (sum, n) = self
@@ -531,7 +585,7 @@ impl SensorCheck {
             .fold((0.0, 0u32), |(s, n), (_, d)| (s + d.0, n + 1));
         (n > 0).then(|| {
             let n = f64::from(n);
-            (sum / n, cfg.load_zero_sd_pct / n.sqrt())
+            (sum / n, (sd * sd / n + reference_var).sqrt())
         })
     }
 
@@ -815,6 +869,45 @@ mod tests {
         }
         assert_eq!(check.zero_witnesses.len(), ZERO_WITNESSES);
         assert!(check.zero_witnesses.iter().all(|(t, _)| t.0 > 86_400.0));
+    }
+
+    #[test]
+    fn without_a_trained_zero_the_first_parkings_monitored_are_the_witnesses_zero() {
+        // A training too short to park in leaves the model no zero. The monitor learns one
+        // from its first ZERO_LEARNT_PARKINGS parkings (the first 16 hours of `day`), and the
+        // parkings after that witness a zero that moves: 0.4 % from the second day on reads
+        // 0.4 %, beyond ZERO_WITNESS_Z standard errors, the learnt zero's own error included;
+        // a zero that stays reads within them. No limit is judged without a trained zero.
+        let limits = SensorLimits::default();
+        assert_eq!(limits.load_zero_pct, None);
+        let witness = |offset: f64| {
+            let mut check = SensorCheck::new();
+            for x in day(86_400.0, 0.0, 2).iter().take(10 * 3600) {
+                check.sample(x, &limits, 0.05);
+            }
+            assert_eq!(
+                check.load_zero_shift(&limits, 0.0),
+                None,
+                "10 parkings learn no zero"
+            );
+            for x in day(86_400.0 + 10.0 * 3600.0, 0.0, 3).iter().take(14 * 3600) {
+                check.sample(x, &limits, 0.05);
+            }
+            for x in day(2.0 * 86_400.0, offset, 4) {
+                check.sample(&x, &limits, 0.05);
+            }
+            assert!(!check.load_zero_drift());
+            check
+                .load_zero_shift(&limits, 2.0 * 86_400.0)
+                .expect("a day of parkings after the learnt zero")
+        };
+        let (pct, se) = witness(0.4);
+        assert!(
+            (pct - 0.4).abs() < 0.1 && pct >= ZERO_WITNESS_Z * se,
+            "{pct} ± {se} %"
+        );
+        let (pct, se) = witness(0.0);
+        assert!(pct.abs() < ZERO_WITNESS_Z * se, "healthy: {pct} ± {se} %");
     }
 
     /// `stops` stops of 1 Hz samples: 15 s at speed, then a standstill of 8-60 s. At rest the

@@ -560,8 +560,7 @@ impl SensorCheck {
     /// The empty car's parked readings that ended after `since`: their mean deviation from the
     /// healthy zero and its standard error from the healthy spread (percent), or, for a model
     /// without a healthy zero, from the zero and spread of the first parkings monitored
-    /// ([`SensorCheck::learnt_zero`]); `None` when there were none or there is no spread to
-    /// judge them by.
+    /// (`learnt_zero`); `None` when there were none or there is no spread to judge them by.
     pub fn load_zero_shift(&self, cfg: &SensorLimits, since: f64) -> Option<(f64, f64)> {
         // A learnt zero is the median of a few parkings, with an error of its own beside the
         // witnesses' (a median's variance is π/2 times a mean's): both go into the standard

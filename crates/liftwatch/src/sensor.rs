@@ -446,7 +446,9 @@ pub struct SensorCheck {
     /// The first [`ZERO_LEARNT_PARKINGS`] parkings' readings (percent), kept when the model has
     /// no healthy zero (a training too short to park in, such as the paper's busy 3 hours):
     /// the zero the witnesses are read against from then on ([`SensorCheck::learnt_zero`]).
-    #[serde(default)]
+    /// Left out of the state while empty, so a model with a trained zero saves the state it
+    /// saved before.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
     zero_learnt: Vec<StateF64>,
     /// The stop in progress, for the rest-voltage check.
     #[serde(default)]

@@ -367,8 +367,7 @@ impl SensorLimits {
         let (reference, limit) = healthy_range(&readings, ZERO_LIMIT_FLOOR_PCT);
         self.load_zero_pct = Some(reference);
         self.load_zero_limit_pct = limit;
-        self.load_zero_sd_pct =
-            crate::stats::robust_sigma(readings.iter().copied()).max(ZERO_SD_FLOOR_PCT);
+        self.load_zero_sd_pct = parked_spread(&readings);
     }
 
     /// Calibrates the rest-voltage check on healthy samples (`thr` the motion threshold,
@@ -402,6 +401,45 @@ fn healthy_range(readings: &[f64], floor: f64) -> (f64, f64) {
         .map(|y| (y - reference).abs())
         .fold(0.0, f64::max);
     (reference, (ZERO_LIMIT_MARGIN * widest).max(floor))
+}
+
+/// The healthy spread of parked readings (percent): robust, at least [`ZERO_SD_FLOOR_PCT`].
+fn parked_spread(readings: &[f64]) -> f64 {
+    crate::stats::robust_sigma(readings.iter().copied()).max(ZERO_SD_FLOOR_PCT)
+}
+
+/// The zero a monitor learns from its first parkings when its model has none: their readings
+/// while fewer than [`ZERO_LEARNT_PARKINGS`], then, computed once, their median and spread as
+/// the training would have calibrated them ([`SensorLimits::calibrate_load_zero`]).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+enum LearntZero {
+    /// The parkings' readings so far (percent).
+    Learning(Vec<StateF64>),
+    /// Their median and spread (percent).
+    Learnt { zero: StateF64, sd: StateF64 },
+}
+
+impl Default for LearntZero {
+    fn default() -> Self {
+        LearntZero::Learning(Vec::new())
+    }
+}
+
+impl LearntZero {
+    /// Nothing learnt yet.
+    fn is_empty(&self) -> bool {
+        matches!(self, LearntZero::Learning(v) if v.is_empty())
+    }
+
+    /// The zero of `readings`.
+    fn of(readings: &[StateF64]) -> Self {
+        let readings: Vec<f64> = readings.iter().map(|z| z.0).collect();
+        LearntZero::Learnt {
+            zero: StateF64(crate::stats::median(&readings)),
+            sd: StateF64(parked_spread(&readings)),
+        }
+    }
 }
 
 /// Sensor plausibility from raw samples and completed trips.
@@ -443,13 +481,12 @@ pub struct SensorCheck {
     /// the healthy zero (percent).
     #[serde(default)]
     zero_witnesses: std::collections::VecDeque<(StateF64, StateF64)>,
-    /// The first [`ZERO_LEARNT_PARKINGS`] parkings' readings (percent), kept when the model has
-    /// no healthy zero (a training too short to park in, such as the paper's busy 3 hours):
-    /// the zero the witnesses are read against from then on ([`SensorCheck::learnt_zero`]).
-    /// Left out of the state while empty, so a model with a trained zero saves the state it
-    /// saved before.
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    zero_learnt: Vec<StateF64>,
+    /// The zero a model without a healthy one (a training too short to park in, such as the
+    /// paper's busy 3 hours) has the witnesses read against ([`SensorCheck::learnt_zero`]).
+    /// Left out of the state while nothing is learnt, so a model with a trained zero saves the
+    /// state it saved before.
+    #[serde(default, skip_serializing_if = "LearntZero::is_empty")]
+    zero_learnt: LearntZero,
     /// The stop in progress, for the rest-voltage check.
     #[serde(default)]
     rest: RestVoltage,
@@ -488,7 +525,7 @@ impl SensorCheck {
             parking: Parking::new(),
             zero_drift: false,
             zero_witnesses: std::collections::VecDeque::new(),
-            zero_learnt: Vec::new(),
+            zero_learnt: LearntZero::default(),
             rest: RestVoltage::default(),
             rest_g: [0.0; 2],
             missing_channel: None,
@@ -518,11 +555,14 @@ impl SensorCheck {
                 self.zero_drift = (z - reference).abs() > cfg.load_zero_limit_pct;
                 reference
             }
-            None => match self.learnt_zero() {
-                Some((reference, _)) => reference,
-                None => {
+            None => match &mut self.zero_learnt {
+                LearntZero::Learnt { zero, .. } => zero.0,
+                LearntZero::Learning(readings) => {
                     if z.is_finite() {
-                        self.zero_learnt.push(StateF64(z));
+                        readings.push(StateF64(z));
+                    }
+                    if readings.len() >= ZERO_LEARNT_PARKINGS {
+                        self.zero_learnt = LearntZero::of(readings);
                     }
                     return;
                 }
@@ -538,19 +578,15 @@ impl SensorCheck {
     }
 
     /// The zero and spread (percent) of the first [`ZERO_LEARNT_PARKINGS`] parkings this
-    /// check saw, as the training would have calibrated them
-    /// ([`SensorLimits::calibrate_load_zero`]: median, robust spread, its floor); `None` until
-    /// there were as many. Only a model without a healthy zero uses it, and only for the
-    /// witnesses: the parked readings then tell a zero that moved during a window from one
-    /// that stayed, though not where the healthy zero was (a cell already off when monitoring
-    /// began reads as its own zero).
+    /// check saw ([`LearntZero`]); `None` until there were as many. Only a model without a
+    /// healthy zero uses it, and only for the witnesses: the parked readings then tell a zero
+    /// that moved during a window from one that stayed, though not where the healthy zero was
+    /// (a cell already off when monitoring began reads as its own zero).
     fn learnt_zero(&self) -> Option<(f64, f64)> {
-        if self.zero_learnt.len() < ZERO_LEARNT_PARKINGS {
-            return None;
+        match self.zero_learnt {
+            LearntZero::Learnt { zero, sd } => Some((zero.0, sd.0)),
+            LearntZero::Learning(_) => None,
         }
-        let readings: Vec<f64> = self.zero_learnt.iter().map(|z| z.0).collect();
-        let sd = crate::stats::robust_sigma(readings.iter().copied()).max(ZERO_SD_FLOOR_PCT);
-        Some((crate::stats::median(&readings), sd))
     }
 
     /// When the newest parking witness ended, as bits (None before the first): it changes
@@ -571,7 +607,7 @@ impl SensorCheck {
             Some(_) => (cfg.load_zero_sd_pct, 0.0),
             None => {
                 let sd = self.learnt_zero()?.1;
-                let k = self.zero_learnt.len() as f64;
+                let k = ZERO_LEARNT_PARKINGS as f64;
                 (sd, std::f64::consts::FRAC_PI_2 * sd * sd / k)
             }
         };

@@ -44,9 +44,9 @@ use crate::model::HybridModel;
 use crate::residual::PredictionCache;
 use crate::risk::sequential::{DAY_S, N_SIZES};
 use crate::risk::{
-    excess, friction_reference, signature, unpack, RiskConfig, RiskTracker, Rls, SequentialConfig,
-    TripEvidence, Winding, HEAT_LAG, MAX_HEATING, MAX_WINDING_TAU_S, MIN_WINDING_TAU_S, N_HEAT,
-    PACKED_DIAG,
+    excess, friction_reference, signature, unpack, PreparedTrip, RiskConfig, RiskTracker, Rls,
+    SequentialConfig, TripEvidence, Winding, HEAT_LAG, MAX_HEATING, MAX_WINDING_TAU_S,
+    MIN_WINDING_TAU_S, N_HEAT, PACKED_DIAG,
 };
 use crate::rng::{moving_blocks, BlockStart, Rng};
 use crate::sensor::SensorLimits;
@@ -1185,27 +1185,24 @@ impl HourWander {
         let z: [f64; N_MODES] = std::array::from_fn(|_| rng.normal());
         std::array::from_fn(|a| (0..=a).map(|b| self.chol[a][b] * z[b]).sum())
     }
-
-    /// The trip with its hour moved by `offset`: each signature's score by its information
-    /// times the offset (the regression's residual r_U² is left as it was).
-    fn shift(&self, t: &TripEvidence, offset: &[f64; N_MODES]) -> TripEvidence {
-        let mut out = t.clone();
-        for m in 0..N_MODES {
-            out.xtr[m] += t.xtx[PACKED_DIAG[m]] * offset[m];
-        }
-        out
-    }
 }
 
+/// A moving-block bootstrap of `total` trips of the record `trips`, each handed to `f` prepared
+/// for a tracker of `cfg` ([`PreparedTrip`]: formed once per trip of the record, not per
+/// draw), with the level its hour of service was drawn ([`HourWander`]) when the training
+/// measured any.
 fn bootstrap(
+    cfg: &RiskConfig,
     trips: &[TripEvidence],
     block_s: f64,
     total: u64,
     rng: &mut Rng,
     hours: &HourWander,
-    mut f: impl FnMut(&TripEvidence),
+    mut f: impl FnMut(&PreparedTrip, Option<&[f64; N_MODES]>),
 ) {
     let total = usize::try_from(total).unwrap_or(usize::MAX);
+    let prepared: Vec<PreparedTrip> = trips.iter().map(|t| PreparedTrip::new(cfg, t)).collect();
+    let hour_of: Vec<f64> = trips.iter().map(|t| (t.start / HOUR_S).floor()).collect();
     let ends = |first: usize, i: usize| trips[i].start - trips[first].start >= block_s;
     let mut draw = rng.fork();
     let mut cell: Option<(usize, f64)> = None;
@@ -1213,7 +1210,7 @@ fn bootstrap(
     let mut ambient = 0.0;
     moving_blocks(rng, trips.len(), BlockStart::Anywhere, total, ends, |i| {
         if hours.is_zero() {
-            f(&trips[i]);
+            f(&prepared[i], None);
             return;
         }
         // A new block is a new place on the unseen daily cycle; a new hour of service (or a
@@ -1222,13 +1219,13 @@ fn bootstrap(
         if new_block {
             ambient = hours.draw_ambient(&mut draw);
         }
-        let hour = (trips[i].start / HOUR_S).floor();
+        let hour = hour_of[i];
         if new_block || cell.is_some_and(|(_, h)| h != hour) {
             offset = hours.draw(&mut draw);
             offset[MOTOR_MODE] += ambient;
         }
         cell = Some((i, hour));
-        f(&hours.shift(&trips[i], &offset));
+        f(&prepared[i], Some(&offset));
     });
 }
 
@@ -1243,8 +1240,8 @@ fn bootstrap_maxima(
     let mut tracker = RiskTracker::new(cfg);
     let (mut max_r, mut max_m) = (0.0f64, [0.0f64; N_MODES]);
     let mut max_g = [[0.0f64; N_SIZES]; N_MODES];
-    bootstrap(trips, block_s, total, rng, hours, |t| {
-        let a = tracker.push_levels(cfg, t);
+    bootstrap(cfg, trips, block_s, total, rng, hours, |t, offset| {
+        let a = tracker.push_levels(cfg, t, offset);
         max_r = max_r.max(a.risk);
         let g = tracker.cusum_g();
         for m in 0..N_MODES {
@@ -1269,8 +1266,8 @@ fn bootstrap_episodes(
     let mut tracker = RiskTracker::new(cfg);
     let mut alarm = AlarmState::default();
     let mut episodes = 0;
-    bootstrap(trips, block_s, total, rng, hours, |t| {
-        let a = tracker.push_levels(cfg, t);
+    bootstrap(cfg, trips, block_s, total, rng, hours, |t, offset| {
+        let a = tracker.push_levels(cfg, t, offset);
         let before = alarm.machine_level();
         alarm.update_machine(a.risk, a.ratio, cfg);
         if before == Level::Normal && alarm.machine_level() != Level::Normal {
@@ -1721,29 +1718,41 @@ mod tests {
     #[test]
     fn the_bootstraps_levels_are_the_full_steps_to_the_bit() {
         // The bootstraps take R, G and the ratio from `push_levels`, which skips the
-        // decision's windows, isolation and drifts: on healthy days and through a step that
-        // crosses the CUSUMs, each of them must be the full step's, bit for bit.
+        // decision's windows, isolation and drifts and takes each trip prepared once, its
+        // hour's level added as it is drawn: on healthy days and through a step that crosses
+        // the CUSUMs, each of them must be the full step's, bit for bit, whether the trip is
+        // taken as it is or moved by an hour's level.
         let m = test_model();
         let cfg = calibrated(&m).risk;
         let k = 1.0 * m.scales.sigma_u_v;
         let trips = synthetic_trips(&m, 6, 3.0, 0.0, &|t, _| if t > 86_400.0 { k } else { 0.0 });
-        let (mut full, mut levels) = (RiskTracker::new(&cfg), RiskTracker::new(&cfg));
-        let mut crossed = false;
-        for t in &trips {
-            let t = cfg.winding.take_out(t);
-            let a = full.push(&cfg, &t);
-            let l = levels.push_levels(&cfg, &t);
-            crossed |= a.decision.ratio >= 1.0;
-            assert_eq!(a.risk.to_bits(), l.risk.to_bits());
-            assert_eq!(
-                a.risk_modes.map(f64::to_bits),
-                l.risk_modes.map(f64::to_bits)
-            );
-            assert_eq!(a.decision.ratio.to_bits(), l.ratio.to_bits());
-            let g = |t: &RiskTracker| t.cusum_g().map(|row| row.map(f64::to_bits));
-            assert_eq!(g(&full), g(&levels));
+        let offset = [0.004, -0.02, 0.01];
+        let moved = |t: &TripEvidence| {
+            let mut t = t.clone();
+            for m in 0..N_MODES {
+                t.xtr[m] += t.xtx[PACKED_DIAG[m]] * offset[m];
+            }
+            t
+        };
+        for shift in [None, Some(&offset)] {
+            let (mut full, mut levels) = (RiskTracker::new(&cfg), RiskTracker::new(&cfg));
+            let mut crossed = false;
+            for t in &trips {
+                let t = cfg.winding.take_out(t);
+                let a = full.push(&cfg, &shift.map_or_else(|| t.clone(), |_| moved(&t)));
+                let l = levels.push_levels(&cfg, &PreparedTrip::new(&cfg, &t), shift);
+                crossed |= a.decision.ratio >= 1.0;
+                assert_eq!(a.risk.to_bits(), l.risk.to_bits());
+                assert_eq!(
+                    a.risk_modes.map(f64::to_bits),
+                    l.risk_modes.map(f64::to_bits)
+                );
+                assert_eq!(a.decision.ratio.to_bits(), l.ratio.to_bits());
+                let g = |t: &RiskTracker| t.cusum_g().map(|row| row.map(f64::to_bits));
+                assert_eq!(g(&full), g(&levels));
+            }
+            assert!(crossed, "the step never crossed a CUSUM");
         }
-        assert!(crossed, "the step never crossed a CUSUM");
     }
 
     #[test]

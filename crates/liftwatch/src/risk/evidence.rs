@@ -199,16 +199,27 @@ impl TripEvidence {
 
     /// Mean squared regression residual of the trip for coefficients θ (V²).
     pub(crate) fn fit_error(&self, theta: &[f64; N_MODES]) -> f64 {
-        let xtx = unpack(&self.xtx);
-        let mut q = self.rr;
-        for i in 0..N_MODES {
-            q -= 2.0 * theta[i] * self.xtr[i];
-            for j in 0..N_MODES {
-                q += theta[i] * xtx[i][j] * theta[j];
-            }
-        }
-        q.max(0.0)
+        fit_error(&self.xtx, &self.xtr, self.rr, theta)
     }
+}
+
+/// Mean squared regression residual of a trip with sums x·xᵀ, x·r and r² for coefficients θ
+/// (V²): r² − 2θ·(x·r) + θᵀ(x·xᵀ)θ, never below 0.
+pub(crate) fn fit_error(
+    xtx: &[f64; 6],
+    xtr: &[f64; N_MODES],
+    rr: f64,
+    theta: &[f64; N_MODES],
+) -> f64 {
+    let xtx = unpack(xtx);
+    let mut q = rr;
+    for i in 0..N_MODES {
+        q -= 2.0 * theta[i] * xtr[i];
+        for j in 0..N_MODES {
+            q += theta[i] * xtx[i][j] * theta[j];
+        }
+    }
+    q.max(0.0)
 }
 
 /// The friction (F_c, c) the signatures are scaled by: the fitted values, each floored at

@@ -78,7 +78,7 @@ pub use evidence::{
 };
 pub(crate) use evidence::{spd_inverse, unpack, PACKED_DIAG};
 pub use sequential::{Decision, Sequential, SequentialConfig};
-pub(crate) use tracker::excess;
+pub(crate) use tracker::{excess, PreparedTrip};
 pub use tracker::{Accumulator, RiskTracker, Rls, TripAssessment};
 
 #[cfg(test)]

@@ -372,16 +372,42 @@ impl SequentialConfig {
         self.score(t).0
     }
 
-    /// Each CUSUM's increment ν·u − ν²/2 for one trip's score and information, per mode and
-    /// size: in standardised units u = score/(s·√info) (clipped), ν = δ·√info/s; the
-    /// reference size counts only the score beyond [`REFERENCE_Z`] of θ0's error.
-    fn increments(
+    /// What a trip's CUSUM increments take from its x·xᵀ alone ([`TripWeights`]).
+    pub(crate) fn weights(&self, xtx: &[f64; 6]) -> TripWeights {
+        let (healthy, info) = self.healthy_and_info(xtx);
+        TripWeights {
+            healthy,
+            root: std::array::from_fn(|m| (self.s2[m] * info[m]).sqrt()),
+            reference: std::array::from_fn(|m| REFERENCE_Z * self.reference_se[m] * info[m]),
+            nu: std::array::from_fn(|m| {
+                std::array::from_fn(|j| self.delta(m, j) * (info[m] / self.s2[m]).sqrt())
+            }),
+        }
+    }
+
+    /// (x·xᵀ·θ0)_m, the healthy part of a trip's score, and its information (x·xᵀ)_mm.
+    fn healthy_and_info(&self, xtx: &[f64; 6]) -> ([f64; N_MODES], [f64; N_MODES]) {
+        let x = unpack(xtx);
+        let mut healthy = [0.0; N_MODES];
+        let mut info = [0.0; N_MODES];
+        for m in 0..N_MODES {
+            healthy[m] = (0..N_MODES).map(|j| x[m][j] * self.theta0[j]).sum();
+            info[m] = x[m][m];
+        }
+        (healthy, info)
+    }
+
+    /// Each CUSUM's increment ν·u − ν²/2 for one trip's score, per mode and size, with the
+    /// trip's [`TripWeights`]: in standardised units u = score/(s·√info) (clipped),
+    /// ν = δ·√info/s; the reference size counts only the score beyond [`REFERENCE_Z`] of
+    /// θ0's error.
+    pub(crate) fn increments(
         &self,
         score: &[f64; N_MODES],
-        info: &[f64; N_MODES],
+        w: &TripWeights,
     ) -> [[f64; N_SIZES]; N_MODES] {
         std::array::from_fn(|m| {
-            let root = (self.s2[m] * info[m]).sqrt();
+            let root = w.root[m];
             let standardised = |score: f64| {
                 if root > 0.0 {
                     (score / root).clamp(-CLIP, CLIP)
@@ -390,27 +416,38 @@ impl SequentialConfig {
                 }
             };
             let u = standardised(score[m]);
-            let u_beyond = standardised(score[m] - REFERENCE_Z * self.reference_se[m] * info[m]);
+            let u_beyond = standardised(score[m] - w.reference[m]);
             std::array::from_fn(|j| {
                 let u = if j == REFERENCE_SIZE { u_beyond } else { u };
-                let nu = self.delta(m, j) * (info[m] / self.s2[m]).sqrt();
-                gaussian_llr(nu, u)
+                gaussian_llr(w.nu[m][j], u)
             })
         })
     }
 
+    /// A trip's score per mode for its regression sums x·r and its [`TripWeights`]:
+    /// mean(x_m·r_U) − (mean(x·xᵀ)·θ0)_m.
+    pub(crate) fn score_of(xtr: &[f64; N_MODES], w: &TripWeights) -> [f64; N_MODES] {
+        std::array::from_fn(|m| xtr[m] - w.healthy[m])
+    }
+
     /// Score and information of one trip per mode.
     fn score(&self, t: &TripEvidence) -> ([f64; N_MODES], [f64; N_MODES]) {
-        let xtx = unpack(&t.xtx);
-        let mut score = [0.0; N_MODES];
-        let mut info = [0.0; N_MODES];
-        for m in 0..N_MODES {
-            let healthy: f64 = (0..N_MODES).map(|j| xtx[m][j] * self.theta0[j]).sum();
-            score[m] = t.xtr[m] - healthy;
-            info[m] = xtx[m][m];
-        }
-        (score, info)
+        let (healthy, info) = self.healthy_and_info(&t.xtx);
+        (std::array::from_fn(|m| t.xtr[m] - healthy[m]), info)
     }
+}
+
+/// What a trip's CUSUM increments take from its x·xᵀ alone, per mode (and size): the healthy
+/// part of its score (x·xᵀ·θ0), s·√info, the reference's allowance z·se0·info and ν. The monitor forms them once per trip; the calibration's bootstraps, which
+/// draw each healthy trip thousands of times with its score moved by an hour's level but its
+/// x·xᵀ unchanged, form them once per trip of the record (their fifteen square roots were
+/// most of a bootstrapped trip's decision).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct TripWeights {
+    healthy: [f64; N_MODES],
+    root: [f64; N_MODES],
+    reference: [f64; N_MODES],
+    nu: [[f64; N_SIZES]; N_MODES],
 }
 
 /// The window's sums weighted by its time τ (days since its first trip), for the line
@@ -563,9 +600,10 @@ impl Sequential {
     /// its release ratio on, and a healthy trip's window would spend most of the step, and of
     /// the calibration's ten bootstrapped years, on a drift nobody reads).
     pub fn push(&mut self, cfg: &SequentialConfig, t: &TripEvidence, drift_from: f64) -> Decision {
-        let (score, info) = cfg.score(t);
+        let w = cfg.weights(&t.xtx);
+        let score = SequentialConfig::score_of(&t.xtr, &w);
         let load_score = cfg.load.map_or(0.0, |l| l.score(&cfg.theta0, t));
-        let llr = cfg.increments(&score, &info);
+        let llr = cfg.increments(&score, &w);
         let mut lead = (0usize, 0usize, 0.0f64);
         for m in 0..N_MODES {
             for j in 0..N_SIZES {
@@ -652,14 +690,20 @@ impl Sequential {
         }
     }
 
-    /// Advances the CUSUMs' G by one usable trip as [`Sequential::push`] does, and returns
+    /// Advances the CUSUMs' G by one usable trip (its x·r and the [`TripWeights`] of its
+    /// x·xᵀ) as [`Sequential::push`] does, and returns
     /// the ratio its decision would carry (max G/h over the bank), without the windows' sums,
     /// the isolation or the drifts: all that the calibration's bootstraps read of their ten
     /// years of trips, where the rest was most of the decision's cost. A bank advanced this
     /// way holds G alone (its windows stay empty), so it is not one whose decisions are read.
-    pub(crate) fn advance_g(&mut self, cfg: &SequentialConfig, t: &TripEvidence) -> f64 {
-        let (score, info) = cfg.score(t);
-        let llr = cfg.increments(&score, &info);
+    pub(crate) fn advance_g(
+        &mut self,
+        cfg: &SequentialConfig,
+        xtr: &[f64; N_MODES],
+        w: &TripWeights,
+    ) -> f64 {
+        let score = SequentialConfig::score_of(xtr, w);
+        let llr = cfg.increments(&score, w);
         let mut ratio = 0.0f64;
         for m in 0..N_MODES {
             for j in 0..N_SIZES {

@@ -13,8 +13,8 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::evidence::{spd_inverse, unpack};
-use super::sequential::{Decision, Sequential};
+use super::evidence::{fit_error, spd_inverse, unpack, PACKED_DIAG};
+use super::sequential::{Decision, Sequential, TripWeights};
 use super::{RiskConfig, TripEvidence, N_MODES};
 use crate::exact;
 
@@ -43,11 +43,16 @@ impl Rls {
 
     /// Forgets by `forget`, then adds one trip.
     pub fn update(&mut self, t: &TripEvidence, forget: f64) {
+        self.update_sums(&t.xtx, &t.xtr, forget);
+    }
+
+    /// Forgets by `forget`, then adds a trip's sums x·xᵀ and x·r.
+    fn update_sums(&mut self, xtx: &[f64; 6], xtr: &[f64; N_MODES], forget: f64) {
         for k in 0..6 {
-            self.a[k] = forget * self.a[k] + t.xtx[k];
+            self.a[k] = forget * self.a[k] + xtx[k];
         }
         for k in 0..N_MODES {
-            self.b[k] = forget * self.b[k] + t.xtr[k];
+            self.b[k] = forget * self.b[k] + xtr[k];
         }
     }
 
@@ -140,6 +145,69 @@ pub(crate) struct TripStatistics {
     pub(crate) e_trip: f64,
 }
 
+/// The trip-level lens of one trip, which no tracker state changes: e_trip and
+/// c = ln(1 + e_trip).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct TripLens {
+    c: f64,
+    e_trip: f64,
+}
+
+impl TripLens {
+    /// e_trip = √((z_U² + z_F²)/2) of the trip-mean residuals over their healthy spread at
+    /// the trip's length (|z_U| without a force residual), and its c.
+    fn of(cfg: &RiskConfig, t: &TripEvidence) -> Self {
+        let n = f64::from(t.n.max(1));
+        let z_u = t.mean_e_u / (cfg.trip_spread_u[0] + cfg.trip_spread_u[1] / n).sqrt();
+        let z_f = t.mean_e_f / (cfg.trip_spread_f[0] + cfg.trip_spread_f[1] / n).sqrt();
+        let e_trip = if z_f.is_finite() {
+            ((z_u * z_u + z_f * z_f) / 2.0).sqrt()
+        } else {
+            z_u.abs()
+        };
+        let e = if e_trip.is_finite() { e_trip } else { 0.0 };
+        TripLens {
+            c: e.ln_1p(),
+            e_trip,
+        }
+    }
+}
+
+/// A healthy trip as the calibration's bootstraps take it, thousands of times over: what no
+/// tracker state changes, formed once per trip of the record ([`TripLens`], the decision's
+/// [`TripWeights`], whether it is usable). Each draw may move the trip's score by an hour's
+/// level ([`RiskTracker::push_levels`]); its x·xᵀ, and so all of this, stays.
+pub(crate) struct PreparedTrip<'a> {
+    trip: &'a TripEvidence,
+    usable: bool,
+    lens: TripLens,
+    weights: Option<TripWeights>,
+}
+
+impl<'a> PreparedTrip<'a> {
+    /// `trip` prepared for a tracker of `cfg` (its θ0, s² and se0; the thresholds may change
+    /// after, as the calibration sets them).
+    pub(crate) fn new(cfg: &RiskConfig, trip: &'a TripEvidence) -> Self {
+        PreparedTrip {
+            trip,
+            usable: trip.usable(cfg),
+            lens: TripLens::of(cfg, trip),
+            weights: cfg.sequential.as_ref().map(|seq| seq.weights(&trip.xtx)),
+        }
+    }
+
+    /// The trip's x·r with its signature levels moved by `offset` (coefficient units of
+    /// each signature alone): each score by its information times the offset, r² left as
+    /// it was.
+    fn xtr(&self, offset: Option<&[f64; N_MODES]>) -> [f64; N_MODES] {
+        let t = self.trip;
+        match offset {
+            Some(o) => std::array::from_fn(|m| t.xtr[m] + t.xtx[PACKED_DIAG[m]] * o[m]),
+            None => t.xtr,
+        }
+    }
+}
+
 /// What the tracker concluded after one trip.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct TripAssessment {
@@ -225,6 +293,18 @@ impl RiskTracker {
 
     /// Updates the re-identification with one trip and forms its statistics.
     pub(crate) fn statistics(&mut self, cfg: &RiskConfig, t: &TripEvidence) -> TripStatistics {
+        self.statistics_of(cfg, &t.xtx, &t.xtr, t.rr, TripLens::of(cfg, t))
+    }
+
+    /// [`RiskTracker::statistics`] of a trip given as its regression sums and its lens.
+    fn statistics_of(
+        &mut self,
+        cfg: &RiskConfig,
+        xtx: &[f64; 6],
+        xtr: &[f64; N_MODES],
+        rr: f64,
+        lens: TripLens,
+    ) -> TripStatistics {
         let forget = cfg.forgetting();
         // The regression residual variance, tracked with the same horizon, from the error
         // of the estimate before this trip (a prediction error, so a fault inflates it late).
@@ -233,21 +313,12 @@ impl RiskTracker {
             .0
             .or_else(|| self.rls.estimate(1.0).map(|(theta, _)| theta));
         if let Some(theta) = before {
-            self.s2 = forget * self.s2 + (1.0 - forget) * t.fit_error(&theta);
+            self.s2 = forget * self.s2 + (1.0 - forget) * fit_error(xtx, xtr, rr, &theta);
         }
-        self.rls.update(t, forget);
-        let n = f64::from(t.n.max(1));
-        let z_u = t.mean_e_u / (cfg.trip_spread_u[0] + cfg.trip_spread_u[1] / n).sqrt();
-        let z_f = t.mean_e_f / (cfg.trip_spread_f[0] + cfg.trip_spread_f[1] / n).sqrt();
-        let e_trip = if z_f.is_finite() {
-            ((z_u * z_u + z_f * z_f) / 2.0).sqrt()
-        } else {
-            z_u.abs()
-        };
-        let e = if e_trip.is_finite() { e_trip } else { 0.0 };
+        self.rls.update_sums(xtx, xtr, forget);
         let mut c_modes = [0.0; N_MODES];
         let a = &mut self.last;
-        a.e_trip = e_trip;
+        a.e_trip = lens.e_trip;
         let estimate = self.rls.estimate(self.s2);
         self.theta = Memo(estimate.map(|(theta, _)| theta));
         if let Some((theta, var)) = estimate {
@@ -263,8 +334,8 @@ impl RiskTracker {
                 // agree on (the joint drifts attribute it, the level alone rules out a split
                 // of near-collinear signatures).
                 let z = match alone {
-                    Some(lens) => {
-                        joint.min(lens[m].map_or(0.0, |(d, se)| d / cfg.alone_scale(m, se)))
+                    Some(levels) => {
+                        joint.min(levels[m].map_or(0.0, |(d, se)| d / cfg.alone_scale(m, se)))
                     }
                     None => joint,
                 };
@@ -278,9 +349,9 @@ impl RiskTracker {
             a.z = [0.0; N_MODES];
         }
         TripStatistics {
-            c: e.ln_1p(),
+            c: lens.c,
             c_modes,
-            e_trip,
+            e_trip: lens.e_trip,
         }
     }
 
@@ -291,7 +362,8 @@ impl RiskTracker {
         if !t.usable(cfg) {
             return self.last;
         }
-        self.accumulate(cfg, t);
+        let s = self.statistics(cfg, t);
+        self.accumulate(cfg, &s);
         if let Some(seq) = &cfg.sequential {
             let d = self.seq.push(seq, t, cfg.release_ratio);
             // While a change is held, its drift is the one measured on the changed trips, not
@@ -305,16 +377,24 @@ impl RiskTracker {
         self.last
     }
 
-    /// Takes one trip as [`RiskTracker::push`] does, but advances the sequential decision's G
-    /// alone ([`Sequential::advance_g`]): what the calibration's bootstraps read, the risks,
+    /// Takes one prepared trip as [`RiskTracker::push`] does, its signature levels moved by
+    /// `offset` when one is given ([`PreparedTrip`]), but advances the sequential decision's
+    /// G alone ([`Sequential::advance_g`]): what the calibration's bootstraps read, the risks,
     /// the decision's ratio and G. The decision's mode, windows and drifts are not formed, so
     /// the latest assessment holds only its ratio of them; a tracker taken this way is not one
     /// whose decisions are read (its CUSUMs' windows stay empty).
-    pub(crate) fn push_levels(&mut self, cfg: &RiskConfig, t: &TripEvidence) -> RiskLevels {
-        if t.usable(cfg) {
-            self.accumulate(cfg, t);
-            if let Some(seq) = &cfg.sequential {
-                self.last.decision.ratio = self.seq.advance_g(seq, t);
+    pub(crate) fn push_levels(
+        &mut self,
+        cfg: &RiskConfig,
+        p: &PreparedTrip,
+        offset: Option<&[f64; N_MODES]>,
+    ) -> RiskLevels {
+        if p.usable {
+            let xtr = p.xtr(offset);
+            let s = self.statistics_of(cfg, &p.trip.xtx, &xtr, p.trip.rr, p.lens);
+            self.accumulate(cfg, &s);
+            if let (Some(seq), Some(w)) = (&cfg.sequential, &p.weights) {
+                self.last.decision.ratio = self.seq.advance_g(seq, &xtr, w);
             }
         }
         RiskLevels {
@@ -324,10 +404,8 @@ impl RiskTracker {
         }
     }
 
-    /// The re-identification and the accumulated risks of one usable trip, into the latest
-    /// assessment.
-    fn accumulate(&mut self, cfg: &RiskConfig, t: &TripEvidence) {
-        let s = self.statistics(cfg, t);
+    /// The accumulated risks of one usable trip's statistics, into the latest assessment.
+    fn accumulate(&mut self, cfg: &RiskConfig, s: &TripStatistics) {
         // The combined risk takes the largest excess of any lens over its own boundary, so it
         // rises for any mode and for trip-level deviations no signature explains.
         let mut x = excess(s.c, cfg.tau);

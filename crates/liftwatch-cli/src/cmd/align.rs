@@ -9,7 +9,7 @@
 use std::path::PathBuf;
 
 use anyhow::Context as _;
-use liftwatch::align::{align_file, AlignConfig, AlignedFileSink};
+use liftwatch::align::{align_file_pipelined, AlignConfig, AlignedFileSink};
 use liftwatch::output::{check_distinct, FileArg};
 
 use super::ui::{ingest_json, named, warn, Ui, UiArgs};
@@ -56,7 +56,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // The library's errors carry no chained cause (`Error::Io` states its OS error in its own
     // message), so `{:#}` prints each once.
     let mut sink = AlignedFileSink::create(&args.out).with_context(cannot_write)?;
-    let report = align_file(&args.input, &cfg, &mut sink)?;
+    let report = align_file_pipelined(&args.input, &cfg, &mut sink)?;
     sink.finish().with_context(cannot_write)?;
     if let Some(w) = report.warning() {
         warn(&args.input, &w);

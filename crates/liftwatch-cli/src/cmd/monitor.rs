@@ -21,7 +21,7 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use liftwatch::alarm::Level;
-use liftwatch::align::{align_file, AlignConfig, SampleSink};
+use liftwatch::align::{align_file_pipelined, AlignConfig, SampleSink};
 use liftwatch::file;
 use liftwatch::fit::FittedModel;
 use liftwatch::monitor::{
@@ -405,7 +405,7 @@ pub fn run(args: Args) -> anyhow::Result<Status> {
         highest: Level::Normal,
         ui,
     };
-    let report = align_file(&args.input, &align, &mut sink)?;
+    let report = align_file_pipelined(&args.input, &align, &mut sink)?;
     ui.progress_done();
     check_input_step(step, &report, &named(&args.input, false))?;
     if let Some(w) = report.warning() {

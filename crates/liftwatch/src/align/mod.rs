@@ -47,6 +47,7 @@
 mod aligner;
 mod engine;
 mod passes;
+mod pipelined;
 mod sink;
 mod writer;
 
@@ -65,6 +66,7 @@ use passes::{pass_through, sorted_pass, stream_pass, Outcome, Plan};
 pub use aligner::{Aligner, AlignerCounts};
 pub use engine::Push;
 pub(crate) use passes::RowStream;
+pub use pipelined::align_file_pipelined;
 pub use sink::{sink_fn, AlignedFileSink, FnSink, SampleSink};
 pub(crate) use writer::push_sample;
 pub use writer::{write_aligned, write_aligned_file, AlignedWriter};

@@ -22,7 +22,7 @@ use crate::features::{FeatureConfig, Features};
 use crate::model::train::{self, TrainPoint};
 use crate::model::{FitSummary, HybridModel, PhysParams, TrainConfig};
 use crate::operation::OperationReference;
-use crate::risk::{trip_evidence, RiskConfig, TripEvidence, N_MODES};
+use crate::risk::{evidence_predictions, trip_evidence_from, RiskConfig, TripEvidence, N_MODES};
 use crate::sample::AlignedSeries;
 use crate::sensor::SensorLimits;
 
@@ -142,8 +142,12 @@ pub fn fit_with(
             100.0 * baseline.measured_percentile
         ));
     }
-    let (tau_s, healthy_trips) =
-        winding_time_constant(&mut |tau| trip_evidence(&hybrid, &features.rows, tau));
+    // Each time constant the winding's search tries is a pass over the rows; the network's
+    // predictions, the same in every pass, are made once.
+    let predictions = evidence_predictions(&hybrid, &features.rows);
+    let (tau_s, healthy_trips) = winding_time_constant(&mut |tau| {
+        trip_evidence_from(&hybrid, &features.rows, tau, &predictions)
+    });
     let fit_error = trained.covariance.as_ref().map_or([0.0; N_MODES], |cov| {
         fit_error_along_signatures(&hybrid, &features.rows, cov)
     });

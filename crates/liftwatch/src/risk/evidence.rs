@@ -676,9 +676,32 @@ impl TripAccumulator {
 /// at `tau_s`. Plausibility of the raw sensors is not checked here: training data are healthy
 /// by assumption.
 pub fn trip_evidence(model: &HybridModel, rows: &[FeatureRow], tau_s: f64) -> Vec<TripEvidence> {
+    trip_evidence_from(model, rows, tau_s, &[])
+}
+
+/// The model's predictions of the samples [`trip_evidence`] sums (moving, with a voltage
+/// residual), in order: what the passes of the winding's search over its time constants
+/// share, made once (a network pass per moving sample, each the same whatever τ is).
+pub fn evidence_predictions(model: &HybridModel, rows: &[FeatureRow]) -> Vec<Prediction> {
+    let mut cache = PredictionCache::default();
+    rows.iter()
+        .filter(|x| counts_as_evidence(x))
+        .map(|x| cache.predict(model, x))
+        .collect()
+}
+
+/// [`trip_evidence`] with the predictions of its samples given in order
+/// ([`evidence_predictions`]); samples past their end are predicted here.
+pub fn trip_evidence_from(
+    model: &HybridModel,
+    rows: &[FeatureRow],
+    tau_s: f64,
+    predictions: &[Prediction],
+) -> Vec<TripEvidence> {
     let mut out = Vec::new();
     let mut acc = TripAccumulator::default();
     let mut cache = PredictionCache::default();
+    let mut given = predictions.iter();
     let friction = friction_reference(model);
     let thermal = (heating_reference(model), tau_s);
     let mut heating = Heating::default();
@@ -688,8 +711,11 @@ pub fn trip_evidence(model: &HybridModel, rows: &[FeatureRow], tau_s: f64) -> Ve
             out.extend(acc.finish(true));
             open = x.trip;
         }
-        if x.s != 0 && crate::residual::applicable(x) {
-            let p = cache.predict(model, x);
+        if counts_as_evidence(x) {
+            let p = match given.next() {
+                Some(p) => *p,
+                None => cache.predict(model, x),
+            };
             let r = Residuals::from_prediction(model, x, &p);
             let h = heating.advance_row(thermal, x, Some(&p));
             acc.push(model, friction, x, (&p, &r), h);
@@ -699,6 +725,11 @@ pub fn trip_evidence(model: &HybridModel, rows: &[FeatureRow], tau_s: f64) -> Ve
     }
     out.extend(acc.finish(true));
     out
+}
+
+/// Whether a feature row is a sample of a trip's evidence: moving, with a voltage residual.
+fn counts_as_evidence(x: &FeatureRow) -> bool {
+    x.s != 0 && crate::residual::applicable(x)
 }
 
 /// Where the diagonal (i, i) of a packed upper triangle lies: the entries [`unpack`] puts on

@@ -72,9 +72,9 @@ pub mod sequential;
 mod tracker;
 
 pub use evidence::{
-    friction_reference, heating_reference, signature, trip_evidence, DriftScale, HeatEvidence,
-    HeatInput, Heating, TripAccumulator, TripEvidence, Winding, DEFAULT_WINDING_TAU_S, HEAT_LAG,
-    N_HEAT,
+    evidence_predictions, friction_reference, heating_reference, signature, trip_evidence,
+    trip_evidence_from, DriftScale, HeatEvidence, HeatInput, Heating, TripAccumulator,
+    TripEvidence, Winding, DEFAULT_WINDING_TAU_S, HEAT_LAG, N_HEAT,
 };
 pub(crate) use evidence::{spd_inverse, unpack, PACKED_DIAG};
 pub use sequential::{Decision, Sequential, SequentialConfig};

@@ -42,7 +42,8 @@
 //! `passes.rs` the three ways through a file (stream, sort, pass through); `aligner.rs` the
 //! push-based [`Aligner`] of a service, the same engine with a serialisable state; `sink.rs` the
 //! receiving end, [`SampleSink`] with its own error type, and its sinks; `writer.rs` the
-//! aligned CSV.
+//! aligned CSV; `pipelined.rs` [`align_file_pipelined`], the reading on a thread of its own
+//! beside a sink that has work of its own to do (the monitor's step, the aligned writer).
 
 mod aligner;
 mod engine;

@@ -25,12 +25,14 @@ use crate::input::Input;
 use crate::sample::Sample;
 
 /// Samples handed over at once: 4096 of 64 bytes, 256 KiB, a little over an hour at 1 Hz.
-/// Large enough that the two threads meet a few hundred times a month of data, small enough
-/// to stay in the second-level cache of the core that reads it next.
+/// Large enough that the two threads meet only about 630 times in a month of data, small
+/// enough to stay in the second-level cache of the core that reads it next.
 const BATCH: usize = 4096;
 
-/// Batches filled and not yet taken by the sink: the reader runs at most this far ahead
-/// (4 MiB with [`BATCH`]), so memory stays bounded whatever the file's length.
+/// Batches filled and not yet taken by the sink: the reader runs at most this far ahead (1 MiB
+/// with [`BATCH`]; with the batch being filled, the one being taken and the emptied ones
+/// coming back for reuse, under 3 MiB in all), so memory stays bounded whatever the file's
+/// length.
 const IN_FLIGHT: usize = 4;
 
 /// What the reader sends.

@@ -1727,7 +1727,7 @@ mod tests {
         let k = 1.0 * m.scales.sigma_u_v;
         let trips = synthetic_trips(&m, 6, 3.0, 0.0, &|t, _| if t > 86_400.0 { k } else { 0.0 });
         let offset = [0.004, -0.02, 0.01];
-        let moved = |t: &TripEvidence| {
+        let moved = |t: &TripEvidence, offset: &[f64; N_MODES]| {
             let mut t = t.clone();
             for m in 0..N_MODES {
                 t.xtr[m] += t.xtx[PACKED_DIAG[m]] * offset[m];
@@ -1739,7 +1739,7 @@ mod tests {
             let mut crossed = false;
             for t in &trips {
                 let t = cfg.winding.take_out(t);
-                let a = full.push(&cfg, &shift.map_or_else(|| t.clone(), |_| moved(&t)));
+                let a = full.push(&cfg, &shift.map_or_else(|| t.clone(), |o| moved(&t, o)));
                 let l = levels.push_levels(&cfg, &PreparedTrip::new(&cfg, &t), shift);
                 crossed |= a.decision.ratio >= 1.0;
                 assert_eq!(a.risk.to_bits(), l.risk.to_bits());

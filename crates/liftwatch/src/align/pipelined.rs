@@ -6,13 +6,15 @@
 //! calling thread:                       sink.start / sink.push, in order ◄┘ batches between them
 //! ```
 //!
-//! The sink sees exactly the calls [`align_file`](super::align_file) makes: `start` (again
-//! when alignment has to read the file a second time; samples of the first pass still
-//! waiting in a batch are dropped, as the restart says they must be forgotten), then every
-//! sample in order. On a machine with a second core the monitor's step and its output run
-//! while the next rows are read, which was two fifths of a whole `monitor` run. An error of
-//! the sink stops the reader at its next batch; an error of alignment reaches the caller
-//! after the samples read before it, as it would without the thread.
+//! The sink sees the calls [`align_file`](super::align_file) makes, less the pushes of an
+//! abandoned pass still waiting in a batch: `start` (again when alignment has to read the
+//! file a second time; the samples of the first pass still in the reader's batch are dropped
+//! there, as the restart says they are to be forgotten), then every sample in order. On a
+//! machine with a second core the monitor's step and its output run while the next rows are
+//! read, which was two fifths of a whole `monitor` run. An error of alignment reaches the
+//! caller after every sample read before it, as it would without the thread. An error of the
+//! sink stops the reader at its next batch (a reader that has just begun a sorted pass reads
+//! and sorts the whole file before it sends again, so the caller may wait that long for it).
 
 use std::io;
 use std::path::Path;
@@ -101,7 +103,8 @@ impl SampleSink for Forward {
 }
 
 /// [`align_file`](super::align_file), with the reading on a thread of its own beside `sink`
-/// (the module's notes): the same samples, the same report, the same errors.
+/// (the module's notes): the same samples, the same report, the same errors; a sink that
+/// has a pass restarted is spared the pushes it would have forgotten.
 ///
 /// # Errors
 /// As [`align_file`](super::align_file): alignment's errors, converted, and the sink's own.
@@ -121,9 +124,10 @@ pub fn align_file_pipelined<S: SampleSink>(
             };
             let input = Input::open(path)?;
             let name = input.name().to_path_buf();
-            let report = align_reader(input, &name, cfg, &mut forward)?;
+            let aligned = align_reader(input, &name, cfg, &mut forward);
+            // The samples read before an error reach the sink before it, as without the thread.
             forward.flush()?;
-            Ok::<_, Stop>(report)
+            aligned
         });
         let mut failed = None;
         for message in &from_reader {
@@ -268,6 +272,8 @@ mod tests {
             same_calls(&one, &two).unwrap();
             assert_eq!(format!("{a:?}"), format!("{b:?}"));
             assert_eq!(two.starts > 1, restarted, "{}", path.display());
+            // A restart came with first-pass samples waiting in a batch: dropped unsent.
+            assert_eq!(two.pushed < one.pushed, restarted, "{}", path.display());
         }
     }
 
@@ -289,6 +295,25 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert_eq!(a, b);
+        same_calls(&one, &two).unwrap();
+        // An input that breaks off after more than a batch (a truncated gzip file): every
+        // sample read before the break reaches the sink, then the same error.
+        let mut gz = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::default());
+        std::io::Write::write_all(&mut gz, text.as_bytes()).unwrap();
+        let bytes = gz.finish().unwrap();
+        let cut = dir.join("cut.csv.gz");
+        std::fs::write(&cut, &bytes[..bytes.len() * 2 / 3]).unwrap();
+        let (mut one, mut two) = (Calls::default(), Calls::default());
+        let a = align_file(&cut, &cfg, &mut one).unwrap_err().to_string();
+        let b = align_file_pipelined(&cut, &cfg, &mut two)
+            .unwrap_err()
+            .to_string();
+        assert_eq!(a, b);
+        assert!(
+            one.pushed > BATCH,
+            "{} samples before the break",
+            one.pushed
+        );
         same_calls(&one, &two).unwrap();
         // A file that is not there, and one with no usable row.
         write(&dir, "empty.csv", "time,signal,value\nx,speed,1\n");

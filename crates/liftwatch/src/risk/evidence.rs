@@ -682,7 +682,7 @@ pub fn trip_evidence(model: &HybridModel, rows: &[FeatureRow], tau_s: f64) -> Ve
 /// The model's predictions of the samples [`trip_evidence`] sums (moving, with a voltage
 /// residual), in order: what the passes of the winding's search over its time constants
 /// share, made once (a network pass per moving sample, each the same whatever τ is).
-pub fn evidence_predictions(model: &HybridModel, rows: &[FeatureRow]) -> Vec<Prediction> {
+pub(crate) fn evidence_predictions(model: &HybridModel, rows: &[FeatureRow]) -> Vec<Prediction> {
     let mut cache = PredictionCache::default();
     rows.iter()
         .filter(|x| counts_as_evidence(x))
@@ -692,7 +692,7 @@ pub fn evidence_predictions(model: &HybridModel, rows: &[FeatureRow]) -> Vec<Pre
 
 /// [`trip_evidence`] with the predictions of its samples given in order
 /// ([`evidence_predictions`]); samples past their end are predicted here.
-pub fn trip_evidence_from(
+pub(crate) fn trip_evidence_from(
     model: &HybridModel,
     rows: &[FeatureRow],
     tau_s: f64,
@@ -724,6 +724,7 @@ pub fn trip_evidence_from(
         }
     }
     out.extend(acc.finish(true));
+    debug_assert!(predictions.is_empty() || given.next().is_none());
     out
 }
 

@@ -71,12 +71,14 @@ mod evidence;
 pub mod sequential;
 mod tracker;
 
-pub use evidence::{
-    evidence_predictions, friction_reference, heating_reference, signature, trip_evidence,
-    trip_evidence_from, DriftScale, HeatEvidence, HeatInput, Heating, TripAccumulator,
-    TripEvidence, Winding, DEFAULT_WINDING_TAU_S, HEAT_LAG, N_HEAT,
+pub(crate) use evidence::{
+    evidence_predictions, spd_inverse, trip_evidence_from, unpack, PACKED_DIAG,
 };
-pub(crate) use evidence::{spd_inverse, unpack, PACKED_DIAG};
+pub use evidence::{
+    friction_reference, heating_reference, signature, trip_evidence, DriftScale, HeatEvidence,
+    HeatInput, Heating, TripAccumulator, TripEvidence, Winding, DEFAULT_WINDING_TAU_S, HEAT_LAG,
+    N_HEAT,
+};
 pub use sequential::{Decision, Sequential, SequentialConfig};
 pub(crate) use tracker::{excess, PreparedTrip};
 pub use tracker::{Accumulator, RiskTracker, Rls, TripAssessment};

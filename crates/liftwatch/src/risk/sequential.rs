@@ -438,10 +438,11 @@ impl SequentialConfig {
 }
 
 /// What a trip's CUSUM increments take from its x·xᵀ alone, per mode (and size): the healthy
-/// part of its score (x·xᵀ·θ0), s·√info, the reference's allowance z·se0·info and ν. The monitor forms them once per trip; the calibration's bootstraps, which
-/// draw each healthy trip thousands of times with its score moved by an hour's level but its
-/// x·xᵀ unchanged, form them once per trip of the record (their fifteen square roots were
-/// most of a bootstrapped trip's decision).
+/// part of its score (x·xᵀ·θ0), s·√info, the reference's allowance z·se0·info and ν. The
+/// monitor forms them once per trip; the calibration's bootstraps, which draw each healthy
+/// trip thousands of times with its score moved by an hour's level but its x·xᵀ unchanged,
+/// form them once per trip of the record (their fifteen square roots were most of a
+/// bootstrapped trip's decision).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct TripWeights {
     healthy: [f64; N_MODES],

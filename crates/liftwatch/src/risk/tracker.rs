@@ -185,8 +185,9 @@ pub(crate) struct PreparedTrip<'a> {
 }
 
 impl<'a> PreparedTrip<'a> {
-    /// `trip` prepared for a tracker of `cfg` (its θ0, s² and se0; the thresholds may change
-    /// after, as the calibration sets them).
+    /// `trip` prepared for a tracker of `cfg`: for its trip spreads and shortest usable trip,
+    /// and its sequential decision's θ0, s², se0 and pooled information (the thresholds may
+    /// change after, as the calibration sets them; nothing else may).
     pub(crate) fn new(cfg: &RiskConfig, trip: &'a TripEvidence) -> Self {
         PreparedTrip {
             trip,
@@ -389,6 +390,7 @@ impl RiskTracker {
         p: &PreparedTrip,
         offset: Option<&[f64; N_MODES]>,
     ) -> RiskLevels {
+        debug_assert_eq!(cfg.sequential.is_some(), p.weights.is_some());
         if p.usable {
             let xtr = p.xtr(offset);
             let s = self.statistics_of(cfg, &p.trip.xtx, &xtr, p.trip.rr, p.lens);

@@ -401,11 +401,7 @@ impl SequentialConfig {
     /// trip's [`TripWeights`]: in standardised units u = score/(s·√info) (clipped),
     /// ν = δ·√info/s; the reference size counts only the score beyond [`REFERENCE_Z`] of
     /// θ0's error.
-    pub(crate) fn increments(
-        &self,
-        score: &[f64; N_MODES],
-        w: &TripWeights,
-    ) -> [[f64; N_SIZES]; N_MODES] {
+    fn increments(&self, score: &[f64; N_MODES], w: &TripWeights) -> [[f64; N_SIZES]; N_MODES] {
         std::array::from_fn(|m| {
             let root = w.root[m];
             let standardised = |score: f64| {
@@ -426,7 +422,7 @@ impl SequentialConfig {
 
     /// A trip's score per mode for its regression sums x·r and its [`TripWeights`]:
     /// mean(x_m·r_U) − (mean(x·xᵀ)·θ0)_m.
-    pub(crate) fn score_of(xtr: &[f64; N_MODES], w: &TripWeights) -> [f64; N_MODES] {
+    fn score_of(xtr: &[f64; N_MODES], w: &TripWeights) -> [f64; N_MODES] {
         std::array::from_fn(|m| xtr[m] - w.healthy[m])
     }
 
@@ -691,12 +687,12 @@ impl Sequential {
         }
     }
 
-    /// Advances the CUSUMs' G by one usable trip (its x·r and the [`TripWeights`] of its
-    /// x·xᵀ) as [`Sequential::push`] does, and returns
-    /// the ratio its decision would carry (max G/h over the bank), without the windows' sums,
-    /// the isolation or the drifts: all that the calibration's bootstraps read of their ten
-    /// years of trips, where the rest was most of the decision's cost. A bank advanced this
-    /// way holds G alone (its windows stay empty), so it is not one whose decisions are read.
+    /// Advances the CUSUMs' G by one usable trip (its x·r and the [`TripWeights`] of its x·xᵀ)
+    /// as [`Sequential::push`] does, and returns the ratio its decision would carry (max G/h
+    /// over the bank), without the windows' sums, the isolation or the drifts: all that the
+    /// calibration's bootstraps read of their ten years of trips, where the rest was most of
+    /// the decision's cost. A bank advanced this way holds G alone (its windows stay empty),
+    /// so it is not one whose decisions are read.
     pub(crate) fn advance_g(
         &mut self,
         cfg: &SequentialConfig,

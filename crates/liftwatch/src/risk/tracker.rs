@@ -141,8 +141,6 @@ pub(crate) struct TripStatistics {
     pub(crate) c: f64,
     /// c_m = ln(1 + z⁺_m) per mode.
     pub(crate) c_modes: [f64; N_MODES],
-    /// e_trip itself.
-    pub(crate) e_trip: f64,
 }
 
 /// The trip-level lens of one trip, which no tracker state changes: e_trip and
@@ -349,11 +347,7 @@ impl RiskTracker {
             a.drift_se = [f64::NAN; N_MODES];
             a.z = [0.0; N_MODES];
         }
-        TripStatistics {
-            c: lens.c,
-            c_modes,
-            e_trip: lens.e_trip,
-        }
+        TripStatistics { c: lens.c, c_modes }
     }
 
     /// Takes one trip of machine evidence (callers pass only plausible trips, with the

@@ -21,8 +21,9 @@
 //!
 //! Episodes: an episode is a stretch above `normal`. It takes its mode when it opens (`sensor`
 //! when only the sensor override raised it), is named later when it opened as `unknown` and one
-//! mode comes to dominate, and is named again on escalation; each of these is an event
-//! ([`update_episode`]).
+//! mode comes to dominate, and is named again on escalation; a channel fault that begins while
+//! the machine holds an episode open turns it `sensor` until the fault ends, when it takes the
+//! machine's mode again; each of these is an event ([`update_episode`]).
 //!
 //! Deviation from the paper: the paper leaves the warning rule open; here the thresholds are
 //! calibrated to a stated false-alarm rate (see [`crate::calibrate`]).
@@ -280,19 +281,35 @@ pub fn diagnose(a: &TripAssessment, cfg: &RiskConfig) -> FaultMode {
 }
 
 /// Moves the mode of the open episode for a sample whose level went from `before` to
-/// `state.level()`; returns true when the sample is an event: a change of level, or an episode
-/// opened as `unknown` that now gets its mode (at the same level).
+/// `state.level()`, the sensor override from `sensor_before` to `state.sensor()`; returns true
+/// when the sample is an event: a change of level, an episode opened as `unknown` that now
+/// gets its mode, or a channel fault that begins or ends while the machine holds the episode
+/// open (each of the last two at the same level).
 ///
 /// An advisory may first say `unknown` and then name the mode, when the evidence that raised
-/// it does not yet tell the signatures apart.
+/// it does not yet tell the signatures apart. A channel that fails during a machine advisory
+/// does not change the level (the override raises it to advisory, where it already is), but
+/// the person reading the events must learn that a sensor is now wrong, and which: the
+/// episode becomes `sensor` while the override holds, and takes the machine's mode again
+/// (by [`diagnose`], `unknown` until one is clear) when it ends with the machine still above
+/// `normal`.
 pub fn update_episode(
     mode: &mut FaultMode,
-    before: Level,
+    (before, sensor_before): (Level, bool),
     state: &AlarmState,
     a: &TripAssessment,
     cfg: &RiskConfig,
 ) -> bool {
     let level = state.level();
+    if level == before && level > Level::Normal && state.sensor() != sensor_before {
+        let was = *mode;
+        if state.sensor() {
+            *mode = FaultMode::Sensor;
+        } else if *mode == FaultMode::Sensor && state.machine_level() > Level::Normal {
+            *mode = diagnose(a, cfg);
+        }
+        return *mode != was;
+    }
     let named = level == before
         && level > Level::Normal
         && *mode == FaultMode::Unknown
@@ -379,6 +396,50 @@ mod tests {
             (s.level(), s.machine_level()),
             (Level::Advisory, Level::Normal)
         );
+    }
+
+    #[test]
+    fn a_channel_fault_during_a_machine_advisory_is_an_event_and_so_is_its_end() {
+        let cfg = cfg();
+        // A friction advisory: R at 1.5 times the threshold, the friction risk dominant.
+        let a = TripAssessment {
+            risk: 150.0,
+            risk_modes: [0.0, 0.0, 150.0],
+            ..TripAssessment::default()
+        };
+        let mut s = AlarmState::default();
+        let mut mode = FaultMode::Unknown;
+        s.update_machine(a.risk, 0.0, &cfg);
+        assert!(update_episode(
+            &mut mode,
+            (Level::Normal, false),
+            &s,
+            &a,
+            &cfg
+        ));
+        assert_eq!((s.level(), mode), (Level::Advisory, FaultMode::Friction));
+        let step = |s: &mut AlarmState, mode: &mut FaultMode, sensor: bool, risk: f64| {
+            let before = (s.level(), s.sensor());
+            s.set_sensor(sensor);
+            s.update_machine(risk, 0.0, &cfg);
+            update_episode(mode, before, s, &a, &cfg)
+        };
+        assert!(!step(&mut s, &mut mode, false, 150.0), "nothing changed");
+        // The speed channel sticks: the level stays at advisory, the episode turns `sensor`.
+        assert!(step(&mut s, &mut mode, true, 150.0));
+        assert_eq!((s.level(), mode), (Level::Advisory, FaultMode::Sensor));
+        assert!(
+            !step(&mut s, &mut mode, true, 150.0),
+            "a fault that holds is one event"
+        );
+        // It recovers with the machine still at advisory: the episode is friction's again.
+        assert!(step(&mut s, &mut mode, false, 150.0));
+        assert_eq!((s.level(), mode), (Level::Advisory, FaultMode::Friction));
+        // A channel fault whose override ends with the machine released ends the episode as
+        // before, by the change of level.
+        assert!(step(&mut s, &mut mode, true, 150.0));
+        assert!(step(&mut s, &mut mode, false, 0.0));
+        assert_eq!(s.level(), Level::Normal);
     }
 
     #[test]

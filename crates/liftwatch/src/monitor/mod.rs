@@ -619,7 +619,7 @@ impl Monitor {
             self.end_trip(&t);
         }
         let st = &mut self.st;
-        let before = st.alarm.level();
+        let before = (st.alarm.level(), st.alarm.sensor());
         let sensor = st
             .sensor
             .verdict(&self.model.sensor, x.time, st.alarm.sensor());
@@ -666,12 +666,13 @@ impl Monitor {
         }
     }
 
-    /// The row of the paper's method; `before` is the level before this sample.
+    /// The row of the paper's method; `before` is the level and the sensor override before
+    /// this sample.
     fn pinn_row(
         &mut self,
         x: &FeatureRow,
         res: &Residuals,
-        before: Level,
+        before: (Level, bool),
         summary: Option<TripSummary>,
     ) -> MonitorRow {
         let cfg = &self.model.risk;
@@ -722,7 +723,7 @@ impl Monitor {
             st.events = st.events.saturating_add(1);
             if level == Level::Normal {
                 st.episode_since = f64::NAN;
-            } else if before == Level::Normal {
+            } else if before.0 == Level::Normal {
                 st.episode_since = x.time;
             }
         }
@@ -936,6 +937,44 @@ mod tests {
         // And healthy data of the same seed raise nothing from the sensor checks.
         let healthy = run_all(&model, Method::Pinn, &samples(0.3, 5, None));
         assert!(healthy.iter().all(|r| r.level == Level::Normal));
+    }
+
+    #[test]
+    fn a_speed_that_sticks_during_a_machine_advisory_is_an_event_of_its_own() {
+        let mut model = test_model();
+        // The machine's advisory stands from the first trip with any excess on (its release
+        // asks R below half of 1e-300), so the stuck speed comes inside a machine episode.
+        model.risk.advisory = 1e-300;
+        model.risk.alarm = 1e300;
+        let (onset, duration) = (0.2 * 86_400.0, 3600.0);
+        let fault = SensorFault::StuckSpeed {
+            onset_s: onset,
+            duration_s: duration,
+        };
+        let xs = samples(0.3, 5, Some(fault));
+        let rows = run_all(&model, Method::Pinn, &xs);
+        let events: Vec<Event> = rows
+            .iter()
+            .filter_map(|r| r.event.as_deref().copied())
+            .collect();
+        let opened = events.first().expect("the machine's advisory");
+        assert!(
+            opened.time < onset && opened.mode != FaultMode::Sensor,
+            "{events:?}"
+        );
+        let later: Vec<&Event> = events.iter().filter(|e| e.time >= onset).collect();
+        assert!(
+            later.iter().all(|e| e.level == Level::Advisory),
+            "the level never changed: {events:?}"
+        );
+        let stuck = later.first().expect("the stuck speed must be an event");
+        assert_eq!(
+            (stuck.mode, stuck.channel),
+            (FaultMode::Sensor, Some(Signal::Speed))
+        );
+        let back = later.get(1).expect("and so must its end");
+        assert!(back.time > onset + 0.5 * duration && back.mode != FaultMode::Sensor);
+        assert_eq!(later.len(), 2, "{events:?}");
     }
 
     #[test]

@@ -64,6 +64,9 @@ pub struct Verdict {
     pub level: Level,
     /// The open episode's mode (`unknown` at `normal`).
     pub mode: FaultMode,
+    /// The channel a `sensor` mode is about (`speed`, `voltage`, `load`, ...), when a check
+    /// names one; null otherwise.
+    pub channel: Option<crate::ingest::Signal>,
     /// Time of the last sample watched (s); NaN before any.
     pub time: f64,
     /// When the change began (s), `None` without one.
@@ -280,6 +283,7 @@ impl Verdict {
         Verdict {
             level,
             mode,
+            channel: state.sensor_channel(model),
             time: state.last_time,
             since,
             drifts,
@@ -345,8 +349,11 @@ impl Verdict {
                 format!("drifts {}", ds.join(", "))
             }
         };
+        let channel = self
+            .channel
+            .map_or(String::new(), |c| format!(" ({} channel)", c.name()));
         format!(
-            "{}{at}, {}: {what}{since}; {}.",
+            "{}{at}, {}{channel}: {what}{since}; {}.",
             self.level.as_str().to_uppercase(),
             self.mode.subsystem(),
             self.inspect

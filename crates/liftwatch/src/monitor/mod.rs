@@ -342,6 +342,19 @@ impl MonitorState {
         self.episode_mode
     }
 
+    /// The channel the open `sensor` episode is about now, by the rule its events name it
+    /// by; `None` outside such an episode or when nothing names one.
+    pub fn sensor_channel(&self, model: &FittedModel) -> Option<crate::ingest::Signal> {
+        let witnessed = witnessed_mode(&self.risk.last.decision, &self.sensor, &model.sensor);
+        sensor_channel(
+            self.episode_mode,
+            witnessed,
+            &self.sensor,
+            &model.sensor,
+            self.last_time,
+        )
+    }
+
     /// The risk stage's latest assessment: risks, drifts with their errors, the decision.
     pub fn assessment(&self) -> &crate::risk::TripAssessment {
         &self.risk.last
@@ -435,6 +448,26 @@ fn witnessed_mode(d: &Decision, sensor: &SensorCheck, cfg: &SensorLimits) -> Fau
     } else {
         d.mode
     }
+}
+
+/// The channel a `sensor` episode is about at `time`: the one a channel check holds broken
+/// ([`SensorCheck::channel`]), else the load cell when the isolation's witnessed mode
+/// (`witnessed`, [`witnessed_mode`]) is `sensor`, its zero having explained the machine
+/// evidence best; `None` outside a `sensor` episode or when nothing names one. The one rule
+/// of the events and of the verdict.
+fn sensor_channel(
+    episode: FaultMode,
+    witnessed: FaultMode,
+    sensor: &SensorCheck,
+    limits: &SensorLimits,
+    time: f64,
+) -> Option<crate::ingest::Signal> {
+    if episode != FaultMode::Sensor {
+        return None;
+    }
+    sensor
+        .channel(limits, time)
+        .or((witnessed == FaultMode::Sensor).then_some(crate::ingest::Signal::Load))
 }
 
 impl Monitor {
@@ -702,16 +735,13 @@ impl Monitor {
         if update_episode(&mut st.episode_mode, before, &st.alarm, a, cfg) {
             let evidence =
                 Evidence::from_assessment(a, self.scale, st.risk.trips, st.implausible_trips);
-            // A `sensor` the channel checks do not hold is the isolation's: the load cell's
-            // zero explained the machine evidence best.
-            let channel = (st.episode_mode == FaultMode::Sensor)
-                .then(|| {
-                    st.sensor
-                        .channel(&self.model.sensor, x.time)
-                        .or((a.decision.mode == FaultMode::Sensor)
-                            .then_some(crate::ingest::Signal::Load))
-                })
-                .flatten();
+            let channel = sensor_channel(
+                st.episode_mode,
+                a.decision.mode,
+                &st.sensor,
+                &self.model.sensor,
+                x.time,
+            );
             event = Some(Box::new(Event {
                 time: x.time,
                 level,
@@ -975,6 +1005,22 @@ mod tests {
         let back = later.get(1).expect("and so must its end");
         assert!(back.time > onset + 0.5 * duration && back.mode != FaultMode::Sensor);
         assert_eq!(later.len(), 2, "{events:?}");
+        // What `status` says once the event was written: the sensor, and which, as the event.
+        let mut m = Monitor::new(&model, Method::Pinn);
+        // (The monitor holds one sample back for the central difference.)
+        for x in xs.iter().take_while(|x| x.time <= stuck.time + 1.5) {
+            let _ = m.push(x);
+        }
+        let v = crate::verdict::Verdict::new(&model, m.state_ref());
+        assert_eq!(
+            (v.level, v.mode, v.channel),
+            (Level::Advisory, FaultMode::Sensor, Some(Signal::Speed))
+        );
+        assert!(
+            v.lines()[0].contains("sensors (speed channel)"),
+            "{}",
+            v.lines()[0]
+        );
     }
 
     #[test]

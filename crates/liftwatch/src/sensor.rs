@@ -502,6 +502,12 @@ pub struct SensorCheck {
     /// The channel a reading out of physics came from since the last completed trip.
     #[serde(default)]
     out_of_range_channel: Option<Signal>,
+    /// Since the last completed trip the speed read "moving" for longer than a trip can last,
+    /// or the floor changed while it read standstill: the car travelled without the speed
+    /// showing it, so a floor that differs at the next trip's start is the speed's failure,
+    /// not the floor's. Left out of the state while false.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    travel_unseen: bool,
 }
 
 /// An f64 that serialises exactly, for tuples.
@@ -531,6 +537,7 @@ impl SensorCheck {
             missing_channel: None,
             implausible_channel: None,
             out_of_range_channel: None,
+            travel_unseen: false,
         }
     }
 
@@ -656,6 +663,7 @@ impl SensorCheck {
                 if self.moving_since.is_nan() {
                     self.moving_since = x.time;
                 }
+                self.travel_unseen |= x.time - self.moving_since > cfg.max_trip_s;
             } else {
                 self.moving_since = f64::NAN;
                 if self.still_since.is_nan() {
@@ -673,6 +681,7 @@ impl SensorCheck {
             if self.floor.is_finite() && x.floor != self.floor && x.time - self.still_since > 10.0 {
                 self.observe(false);
                 self.implausible_channel = Some(Signal::Speed);
+                self.travel_unseen = true;
             }
             self.floor = x.floor;
         }
@@ -776,9 +785,13 @@ impl SensorCheck {
                 && t.from_floor.is_finite()
                 && to != t.from_floor
             {
-                failed = failed.or(Some(Signal::Floor));
+                // The car leaves from another floor than it last arrived at: the floor reading
+                // jumped, or the car travelled while the speed did not show it.
+                let unseen = std::mem::take(&mut self.travel_unseen);
+                failed = failed.or(Some(if unseen { Signal::Speed } else { Signal::Floor }));
             }
         }
+        self.travel_unseen = false;
         self.last_trip = Some((t.index, StateF64(t.to_floor)));
         let ok = failed.is_none();
         if failed.is_some() {

@@ -1021,6 +1021,21 @@ mod tests {
             "{}",
             v.lines()[0]
         );
+        // And after the first trip that followed it: the car arrived at another floor than it
+        // had left, travel the stuck speed hid, so the speed stays the channel named.
+        let middle = 0.5 * (stuck.time + back.time);
+        for x in xs
+            .iter()
+            .filter(|x| x.time > stuck.time + 1.5 && x.time < middle)
+        {
+            let _ = m.push(x);
+        }
+        assert!(m.state_ref().trips > 0);
+        let v = crate::verdict::Verdict::new(&model, m.state_ref());
+        assert_eq!(
+            (v.mode, v.channel),
+            (FaultMode::Sensor, Some(Signal::Speed))
+        );
     }
 
     #[test]

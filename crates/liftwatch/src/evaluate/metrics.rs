@@ -4,6 +4,9 @@
 //!
 //! ```text
 //! delay       = (t_detect − t_onset)/day                  first detection at or after the onset
+//!                                                         (a rise of the level; for a sensor
+//!                                                         fault also a `sensor` event inside a
+//!                                                         standing episode)
 //! mode ok     = the true mode named at detection; for a sensor fault `sensor` and its channel
 //! false/year  = false signals/(exposure days/365.25)      before the onset, or the whole healthy run
 //! flicker     = threshold alarm activations, per trip, before it holds PERSISTENT_TRIPS trips
@@ -147,7 +150,10 @@ impl Metrics<'_> {
 
     /// Detection is the first rise of the level (normal → advisory, or an escalation) at or
     /// after the onset; an advisory raised before the onset is a false one and earns no credit
-    /// for the fault that follows it.
+    /// for the fault that follows it. A sensor fault is also detected by the first `sensor`
+    /// event at or after the onset that keeps a standing level: a channel failing inside a
+    /// machine episode, which the monitor reports as an event of its own
+    /// ([`crate::alarm::update_episode`]) though the level cannot rise.
     pub(super) fn liftwatch(&self) -> MethodResult {
         let mut level = Level::Normal;
         let mut false_signals = 0;
@@ -158,7 +164,14 @@ impl Metrics<'_> {
             if level == Level::Normal && e.level > Level::Normal && self.before_onset(e.time) {
                 false_signals += 1;
             }
-            if detected.is_none() && e.level > level && !self.before_onset(e.time) {
+            let sensor_inside = self.truth == Some(FaultMode::Sensor)
+                && e.mode == FaultMode::Sensor
+                && e.level == level
+                && level > Level::Normal;
+            if detected.is_none()
+                && (e.level > level || sensor_inside)
+                && !self.before_onset(e.time)
+            {
                 detected = Some(e.time);
                 mode = Some(e.mode);
                 at = Some(e);

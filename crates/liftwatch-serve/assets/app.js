@@ -954,7 +954,7 @@
         : '<p class="muted">No events: not monitored yet (no active model).</p>';
     }
     const sorted = events.slice().sort((a, b) => (b.time ?? 0) - (a.time ?? 0));
-    const known = new Set(['elevator', 'id', 'seq', 'time', 'time_text', 'level', 'mode', 'risk', 'label',
+    const known = new Set(['elevator', 'id', 'seq', 'time', 'time_text', 'level', 'mode', 'channel', 'risk', 'label',
       'risk_motor', 'risk_brake', 'risk_friction', 'kd_drift_pct', 'kd_drift_se_pct', 'friction_drift_pct',
       'friction_drift_se_pct', 'brake_drag_n', 'brake_drag_se_n', 'trips', 'implausible_trips',
       'cusum_ratio', 'cusum_signature', 'cusum_size', 'cusum_trips']);
@@ -978,7 +978,7 @@
         const label = e.label === 'confirmed' ? '<span class="label-confirmed">confirmed</span>'
           : e.label === 'not_found' ? '<span class="label-not_found">not found</span>' : '<span class="muted">open</span>';
         return `<tr><td class="nowrap">${esc(whenText(e.time, e.time_text, clock))}</td><td>${badge(e.level || 'none')}</td>` +
-          `<td>${esc(SUBSYSTEM[e.mode] || e.mode || '')}</td><td class="num">${esc(sig(e.risk))}</td>` +
+          `<td>${esc((SUBSYSTEM[e.mode] || e.mode || '') + (e.channel ? ` (${e.channel})` : ''))}</td><td class="num">${esc(sig(e.risk))}</td>` +
           `<td class="small">${esc(ev)}</td><td>${label}</td></tr>`;
       }).join('') + '</tbody></table></div>';
   }
@@ -1158,7 +1158,8 @@
     } else {
       const since = fin(v.since) ? ` since ${dayText(v.since, clock)}` : '';
       const what = hd && hd.own ? driftText(hd.drift) : `drifts ${(v.drifts || []).map(driftText).join(', ')}`;
-      headline = `${lv.toUpperCase()}${asOf}, ${SUBSYSTEM[v.mode] || v.mode}: ${what}${since}; ${v.inspect}.`;
+      const channel = v.channel ? ` (${v.channel} channel)` : '';
+      headline = `${lv.toUpperCase()}${asOf}, ${SUBSYSTEM[v.mode] || v.mode}${channel}: ${what}${since}; ${v.inspect}.`;
     }
     const caveats = Array.isArray(v.caveats) && v.caveats.length ? v.caveats.join('; ') : 'none from the model.';
     return `<section class="card verdict lv-${esc(lv)}" id="verdict"><h2>Verdict ${badge(lv)}</h2>` +

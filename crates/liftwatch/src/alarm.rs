@@ -177,10 +177,11 @@ impl Evidence {
     }
 }
 
-/// A change of level (DATA.md §4), one JSON line in the events file.
+/// A change of level (DATA.md §4), or of the open episode's mode at a standing level
+/// ([`update_episode`]): one JSON line in the events file.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Event {
-    /// Time of the sample at which the level changed (s).
+    /// Time of the sample at which the level or the episode's mode changed (s).
     pub time: f64,
     /// The new level.
     pub level: Level,
@@ -284,15 +285,18 @@ pub fn diagnose(a: &TripAssessment, cfg: &RiskConfig) -> FaultMode {
 /// `state.level()`, the sensor override from `sensor_before` to `state.sensor()`; returns true
 /// when the sample is an event: a change of level, an episode opened as `unknown` that now
 /// gets its mode, or a channel fault that begins or ends while the machine holds the episode
-/// open (each of the last two at the same level).
+/// open.
 ///
 /// An advisory may first say `unknown` and then name the mode, when the evidence that raised
-/// it does not yet tell the signatures apart. A channel that fails during a machine advisory
-/// does not change the level (the override raises it to advisory, where it already is), but
-/// the person reading the events must learn that a sensor is now wrong, and which: the
-/// episode becomes `sensor` while the override holds, and takes the machine's mode again
-/// (by [`diagnose`], `unknown` until one is clear) when it ends with the machine still above
-/// `normal`.
+/// it does not yet tell the signatures apart. A channel that fails while the machine holds an
+/// advisory or an alarm does not raise the level (the override raises it to advisory, where
+/// it already is), but the person reading the events must learn that a sensor is now wrong,
+/// and which: the episode becomes `sensor` while the override holds, at an alarm too (while
+/// a channel is wrong its trips are not taken as machine evidence, and the alarm's own event
+/// stands above it in the file), and takes the machine's mode again (by [`diagnose`],
+/// `unknown` until one is clear) when the override releases with the machine still above
+/// `normal`, also at the sample an alarm is released to advisory. An escalation to alarm at
+/// the sample a channel fails names the machine's mode: the alarm is the machine's.
 pub fn update_episode(
     mode: &mut FaultMode,
     (before, sensor_before): (Level, bool),
@@ -301,25 +305,23 @@ pub fn update_episode(
     cfg: &RiskConfig,
 ) -> bool {
     let level = state.level();
-    if level == before && level > Level::Normal && state.sensor() != sensor_before {
+    let sensor_on = state.sensor() && !sensor_before;
+    // The override released from a `sensor` episode the machine holds open.
+    let sensor_off = !state.sensor()
+        && sensor_before
+        && *mode == FaultMode::Sensor
+        && state.machine_level() > Level::Normal;
+    if level == before {
+        if level == Level::Normal {
+            return false;
+        }
         let was = *mode;
-        if state.sensor() {
+        if sensor_on {
             *mode = FaultMode::Sensor;
-        } else if *mode == FaultMode::Sensor && state.machine_level() > Level::Normal {
+        } else if sensor_off || *mode == FaultMode::Unknown {
             *mode = diagnose(a, cfg);
         }
         return *mode != was;
-    }
-    let named = level == before
-        && level > Level::Normal
-        && *mode == FaultMode::Unknown
-        && diagnose(a, cfg) != FaultMode::Unknown;
-    if named {
-        *mode = diagnose(a, cfg);
-        return true;
-    }
-    if level == before {
-        return false;
     }
     if before == Level::Normal {
         let m = diagnose(a, cfg);
@@ -330,10 +332,20 @@ pub fn update_episode(
             m
         };
     } else if level > before {
-        // Escalation names the mode again: more evidence may have made it clear.
+        // Escalation names the mode again: more evidence may have made it clear. It is the
+        // machine's (only risk raises an alarm), so a channel failing at the same sample
+        // waits for the alarm's release to be named.
         let m = diagnose(a, cfg);
-        if m != FaultMode::Unknown {
+        if m != FaultMode::Unknown || sensor_off {
             *mode = m;
+        }
+    } else if level > Level::Normal {
+        // Released from alarm to advisory: the episode goes on, and a channel that failed or
+        // recovered at the same sample moves its mode as it would at a standing level.
+        if sensor_on {
+            *mode = FaultMode::Sensor;
+        } else if sensor_off {
+            *mode = diagnose(a, cfg);
         }
     }
     true
@@ -440,6 +452,69 @@ mod tests {
         assert!(step(&mut s, &mut mode, true, 150.0));
         assert!(step(&mut s, &mut mode, false, 0.0));
         assert_eq!(s.level(), Level::Normal);
+    }
+
+    #[test]
+    fn a_channel_that_recovers_as_the_alarm_is_released_gives_the_episode_back() {
+        let cfg = cfg();
+        let a = TripAssessment {
+            risk: 500.0,
+            risk_modes: [0.0, 0.0, 500.0],
+            ..TripAssessment::default()
+        };
+        let mut s = AlarmState::default();
+        let mut mode = FaultMode::Unknown;
+        s.update_machine(a.risk, 0.0, &cfg);
+        assert!(update_episode(
+            &mut mode,
+            (Level::Normal, false),
+            &s,
+            &a,
+            &cfg
+        ));
+        assert_eq!((s.level(), mode), (Level::Alarm, FaultMode::Friction));
+        // A channel fails at the standing alarm.
+        s.set_sensor(true);
+        assert!(update_episode(
+            &mut mode,
+            (Level::Alarm, false),
+            &s,
+            &a,
+            &cfg
+        ));
+        assert_eq!((s.level(), mode), (Level::Alarm, FaultMode::Sensor));
+        // It recovers at the sample the alarm is released to advisory (R below ρ·alarm).
+        let a = TripAssessment {
+            risk: 150.0,
+            risk_modes: [0.0, 0.0, 150.0],
+            ..a
+        };
+        s.set_sensor(false);
+        s.update_machine(a.risk, 0.0, &cfg);
+        assert!(update_episode(
+            &mut mode,
+            (Level::Alarm, true),
+            &s,
+            &a,
+            &cfg
+        ));
+        assert_eq!((s.level(), mode), (Level::Advisory, FaultMode::Friction));
+        // And one failing as the machine escalates: the alarm is the machine's.
+        let a = TripAssessment {
+            risk: 500.0,
+            risk_modes: [0.0, 0.0, 500.0],
+            ..a
+        };
+        s.set_sensor(true);
+        s.update_machine(a.risk, 0.0, &cfg);
+        assert!(update_episode(
+            &mut mode,
+            (Level::Advisory, false),
+            &s,
+            &a,
+            &cfg
+        ));
+        assert_eq!((s.level(), mode), (Level::Alarm, FaultMode::Friction));
     }
 
     #[test]

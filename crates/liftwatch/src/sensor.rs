@@ -502,10 +502,10 @@ pub struct SensorCheck {
     /// The channel a reading out of physics came from since the last completed trip.
     #[serde(default)]
     out_of_range_channel: Option<Signal>,
-    /// Since the last completed trip the speed read "moving" for longer than a trip can last,
-    /// or the floor changed while it read standstill: the car travelled without the speed
-    /// showing it, so a floor that differs at the next trip's start is the speed's failure,
-    /// not the floor's. Left out of the state while false.
+    /// Since the last completed trip the floor changed while the speed read standstill (the
+    /// standstill check has blamed the speed): the car travelled without the speed showing
+    /// it, so a floor that differs at the next trip's start is the same failure, the speed's,
+    /// not a second one of the floor's. Left out of the state while false.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     travel_unseen: bool,
 }
@@ -663,7 +663,6 @@ impl SensorCheck {
                 if self.moving_since.is_nan() {
                     self.moving_since = x.time;
                 }
-                self.travel_unseen |= x.time - self.moving_since > cfg.max_trip_s;
             } else {
                 self.moving_since = f64::NAN;
                 if self.still_since.is_nan() {
@@ -787,7 +786,7 @@ impl SensorCheck {
             {
                 // The car leaves from another floor than it last arrived at: the floor reading
                 // jumped, or the car travelled while the speed did not show it.
-                let unseen = std::mem::take(&mut self.travel_unseen);
+                let unseen = self.travel_unseen;
                 failed = failed.or(Some(if unseen { Signal::Speed } else { Signal::Floor }));
             }
         }

@@ -153,7 +153,9 @@ impl Metrics<'_> {
     /// for the fault that follows it. A sensor fault is also detected by the first `sensor`
     /// event at or after the onset that keeps a standing level: a channel failing inside a
     /// machine episode, which the monitor reports as an event of its own
-    /// ([`crate::alarm::update_episode`]) though the level cannot rise.
+    /// ([`crate::alarm::update_episode`]) though the level cannot rise, or a standing
+    /// `unknown` episode named `sensor`. The baselines have no such events, so they earn no
+    /// such credit.
     pub(super) fn liftwatch(&self) -> MethodResult {
         let mut level = Level::Normal;
         let mut false_signals = 0;

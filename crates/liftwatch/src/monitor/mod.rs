@@ -337,7 +337,8 @@ impl MonitorState {
         self.alarm.level()
     }
 
-    /// The mode of the open episode (`unknown` at `normal`).
+    /// The mode of the open episode (once the level is back at `normal`, the last one's:
+    /// [`crate::verdict::Verdict`] says `unknown` there).
     pub fn episode_mode(&self) -> FaultMode {
         self.episode_mode
     }
@@ -345,6 +346,9 @@ impl MonitorState {
     /// The channel the open `sensor` episode is about now, by the rule its events name it
     /// by; `None` outside such an episode or when nothing names one.
     pub fn sensor_channel(&self, model: &FittedModel) -> Option<crate::ingest::Signal> {
+        if self.level() == Level::Normal {
+            return None;
+        }
         let witnessed = witnessed_mode(&self.risk.last.decision, &self.sensor, &model.sensor);
         sensor_channel(
             self.episode_mode,

@@ -410,40 +410,32 @@ mod tests {
         );
     }
 
-    #[test]
-    fn a_channel_fault_during_a_machine_advisory_is_an_event_and_so_is_its_end() {
-        let cfg = cfg();
-        // A friction advisory: R at 1.5 times the threshold, the friction risk dominant.
+    /// One sample of a friction fault at risk R with the sensor override `sensor`: moves the
+    /// levels and the episode's mode, and says whether the sample is an event.
+    fn step(s: &mut AlarmState, mode: &mut FaultMode, sensor: bool, risk: f64) -> bool {
         let a = TripAssessment {
-            risk: 150.0,
-            risk_modes: [0.0, 0.0, 150.0],
+            risk,
+            risk_modes: [0.0, 0.0, risk],
             ..TripAssessment::default()
         };
-        let mut s = AlarmState::default();
-        let mut mode = FaultMode::Unknown;
-        s.update_machine(a.risk, 0.0, &cfg);
-        assert!(update_episode(
-            &mut mode,
-            (Level::Normal, false),
-            &s,
-            &a,
-            &cfg
-        ));
+        let before = (s.level(), s.sensor());
+        s.set_sensor(sensor);
+        s.update_machine(risk, 0.0, &cfg());
+        update_episode(mode, before, s, &a, &cfg())
+    }
+
+    #[test]
+    fn a_channel_fault_during_a_machine_advisory_is_an_event_and_so_is_its_end() {
+        let (mut s, mut mode) = (AlarmState::default(), FaultMode::Unknown);
+        // A friction advisory: R at 1.5 times the threshold, the friction risk dominant.
+        assert!(step(&mut s, &mut mode, false, 150.0));
         assert_eq!((s.level(), mode), (Level::Advisory, FaultMode::Friction));
-        let step = |s: &mut AlarmState, mode: &mut FaultMode, sensor: bool, risk: f64| {
-            let before = (s.level(), s.sensor());
-            s.set_sensor(sensor);
-            s.update_machine(risk, 0.0, &cfg);
-            update_episode(mode, before, s, &a, &cfg)
-        };
         assert!(!step(&mut s, &mut mode, false, 150.0), "nothing changed");
         // The speed channel sticks: the level stays at advisory, the episode turns `sensor`.
         assert!(step(&mut s, &mut mode, true, 150.0));
         assert_eq!((s.level(), mode), (Level::Advisory, FaultMode::Sensor));
-        assert!(
-            !step(&mut s, &mut mode, true, 150.0),
-            "a fault that holds is one event"
-        );
+        let held = step(&mut s, &mut mode, true, 150.0);
+        assert!(!held, "a fault that holds is one event");
         // It recovers with the machine still at advisory: the episode is friction's again.
         assert!(step(&mut s, &mut mode, false, 150.0));
         assert_eq!((s.level(), mode), (Level::Advisory, FaultMode::Friction));
@@ -456,64 +448,17 @@ mod tests {
 
     #[test]
     fn a_channel_that_recovers_as_the_alarm_is_released_gives_the_episode_back() {
-        let cfg = cfg();
-        let a = TripAssessment {
-            risk: 500.0,
-            risk_modes: [0.0, 0.0, 500.0],
-            ..TripAssessment::default()
-        };
-        let mut s = AlarmState::default();
-        let mut mode = FaultMode::Unknown;
-        s.update_machine(a.risk, 0.0, &cfg);
-        assert!(update_episode(
-            &mut mode,
-            (Level::Normal, false),
-            &s,
-            &a,
-            &cfg
-        ));
+        let (mut s, mut mode) = (AlarmState::default(), FaultMode::Unknown);
+        assert!(step(&mut s, &mut mode, false, 500.0));
         assert_eq!((s.level(), mode), (Level::Alarm, FaultMode::Friction));
         // A channel fails at the standing alarm.
-        s.set_sensor(true);
-        assert!(update_episode(
-            &mut mode,
-            (Level::Alarm, false),
-            &s,
-            &a,
-            &cfg
-        ));
+        assert!(step(&mut s, &mut mode, true, 500.0));
         assert_eq!((s.level(), mode), (Level::Alarm, FaultMode::Sensor));
         // It recovers at the sample the alarm is released to advisory (R below ρ·alarm).
-        let a = TripAssessment {
-            risk: 150.0,
-            risk_modes: [0.0, 0.0, 150.0],
-            ..a
-        };
-        s.set_sensor(false);
-        s.update_machine(a.risk, 0.0, &cfg);
-        assert!(update_episode(
-            &mut mode,
-            (Level::Alarm, true),
-            &s,
-            &a,
-            &cfg
-        ));
+        assert!(step(&mut s, &mut mode, false, 150.0));
         assert_eq!((s.level(), mode), (Level::Advisory, FaultMode::Friction));
         // And one failing as the machine escalates: the alarm is the machine's.
-        let a = TripAssessment {
-            risk: 500.0,
-            risk_modes: [0.0, 0.0, 500.0],
-            ..a
-        };
-        s.set_sensor(true);
-        s.update_machine(a.risk, 0.0, &cfg);
-        assert!(update_episode(
-            &mut mode,
-            (Level::Advisory, false),
-            &s,
-            &a,
-            &cfg
-        ));
+        assert!(step(&mut s, &mut mode, true, 500.0));
         assert_eq!((s.level(), mode), (Level::Alarm, FaultMode::Friction));
     }
 

@@ -311,14 +311,22 @@ pub fn update_episode(
         && sensor_before
         && *mode == FaultMode::Sensor
         && state.machine_level() > Level::Normal;
+    // Where the override's move names the episode, at a standing level or a release.
+    let moved = if sensor_on {
+        Some(FaultMode::Sensor)
+    } else if sensor_off {
+        Some(diagnose(a, cfg))
+    } else {
+        None
+    };
     if level == before {
         if level == Level::Normal {
             return false;
         }
         let was = *mode;
-        if sensor_on {
-            *mode = FaultMode::Sensor;
-        } else if sensor_off || *mode == FaultMode::Unknown {
+        if let Some(m) = moved {
+            *mode = m;
+        } else if *mode == FaultMode::Unknown {
             *mode = diagnose(a, cfg);
         }
         return *mode != was;
@@ -342,10 +350,8 @@ pub fn update_episode(
     } else if level > Level::Normal {
         // Released from alarm to advisory: the episode goes on, and a channel that failed or
         // recovered at the same sample moves its mode as it would at a standing level.
-        if sensor_on {
-            *mode = FaultMode::Sensor;
-        } else if sensor_off {
-            *mode = diagnose(a, cfg);
+        if let Some(m) = moved {
+            *mode = m;
         }
     }
     true

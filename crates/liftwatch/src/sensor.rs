@@ -786,8 +786,11 @@ impl SensorCheck {
             {
                 // The car leaves from another floor than it last arrived at: the floor reading
                 // jumped, or the car travelled while the speed did not show it.
-                let unseen = self.travel_unseen;
-                failed = failed.or(Some(if unseen { Signal::Speed } else { Signal::Floor }));
+                failed = failed.or(Some(if self.travel_unseen {
+                    Signal::Speed
+                } else {
+                    Signal::Floor
+                }));
             }
         }
         self.travel_unseen = false;

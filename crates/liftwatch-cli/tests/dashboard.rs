@@ -2,10 +2,13 @@
 //! a fresh data directory, loaded with one small simulated elevator whose drive degrades (fit
 //! on its healthy day, the model uploaded, its degraded days replayed as fast as accepted, on
 //! a calendar clock in a zone of UTC+01:00), a healthy peer of the same group (its training
-//! day replayed with the same model) and a third without a model; then Debian's headless
-//! Chromium loads the fleet page and the elevator page, their DOM is checked (the order, the
-//! levels in words, the drift in physical units, the date and zone; the verdict, the charts,
-//! the peers) and screenshots at a laptop's (1366×768) and a phone's (390×844) size are
+//! day replayed with the same model), a third without a model and a fourth whose motor
+//! voltage sensor reads 25 V high from noon of its day (a `sensor` verdict and event naming the
+//! `voltage` channel); then Debian's headless Chromium loads the fleet page and the elevator
+//! pages, their DOM is checked (the order, the levels in words, the drift in physical units,
+//! the date and zone; the verdict, the charts, the peers; the broken sensor named in words in
+//! the fleet row, the headline and the events table) and screenshots at a laptop's (1366×768)
+//! and a phone's (390×844) size are
 //! written under `target/dashboard-screenshots/`, their paths printed. Skipped, saying why,
 //! on a machine without `chromium`.
 
@@ -25,6 +28,8 @@ const TOKEN: &str = "dashboard-test-token";
 const CAR: &str = "car-1";
 const PEER: &str = "car-2";
 const SPARE: &str = "car-3";
+/// An elevator of the same group whose voltage sensor fails (the machine stays healthy).
+const SENSOR: &str = "car-4";
 /// 2026-03-02 00:00 UTC: the degraded days are replayed on a calendar clock (the simulator's
 /// starts at 0), so that the pages show dates; whole days keep the hours of the traffic.
 const START_S: f64 = 1_772_409_600.0;
@@ -300,10 +305,18 @@ fn the_dashboard_shows_which_elevator_needs_a_visit_in_chromium() {
     // The healthy peer: the training day itself, on the same calendar.
     let peer_raw = dir.path("healthy-calendar.csv");
     let peer_end = shift_times(&healthy.join("raw.csv"), &peer_raw, START_S);
+    // The sensor fault: the same elevator's day, its voltage sensor 25 V high from noon on.
+    let faulty = dir.path("faulty");
+    #[rustfmt::skip]
+    liftwatch(&["simulate", "--out", s(&faulty), "--days", "1", "--seed", "7",
+        "--sensor-fault", "voltage-offset", "--onset-days", "0.5"], min(2));
+    let sensor_raw = dir.path("faulty-calendar.csv");
+    let sensor_end = shift_times(&faulty.join("raw.csv"), &sensor_raw, START_S);
 
     let server = Server::start(&dir.path("data"));
     #[rustfmt::skip]
-    let cars = [(CAR, "Test bank, car 1"), (PEER, "Test bank, car 2"), (SPARE, "Test bank, car 3")];
+    let cars = [(CAR, "Test bank, car 1"), (PEER, "Test bank, car 2"), (SPARE, "Test bank, car 3"),
+        (SENSOR, "Test bank, car 4")];
     for (id, name) in cars {
         let body = serde_json::json!({
             "name": name, "group": "Test bank", "timezone": "+01:00",
@@ -317,7 +330,7 @@ fn the_dashboard_shows_which_elevator_needs_a_visit_in_chromium() {
         );
         assert!((200..300).contains(&status), "PUT {id}: {status} {text}");
     }
-    for (id, log) in [(CAR, &raw), (PEER, &peer_raw)] {
+    for (id, log) in [(CAR, &raw), (PEER, &peer_raw), (SENSOR, &sensor_raw)] {
         let (status, text) = server.request(
             "POST",
             &format!("/api/v1/elevators/{id}/models"),
@@ -342,15 +355,19 @@ fn the_dashboard_shows_which_elevator_needs_a_visit_in_chromium() {
         let fleet = server.get_json("/api/v1/elevators");
         let car = summary(&fleet, CAR).expect("the elevator is listed");
         let peer = summary(&fleet, PEER).expect("the peer is listed");
+        let faulty = summary(&fleet, SENSOR).expect("the car with the sensor fault is listed");
         let level = car["verdict"]["level"].as_str().unwrap_or("").to_string();
         if (level == "advisory" || level == "alarm")
             && watched(&car) >= end - 60.0
             && watched(&peer) >= peer_end - 60.0
+            && watched(&faulty) >= sensor_end - 60.0
         {
             assert_eq!(
                 peer["verdict"]["level"], "normal",
                 "the healthy peer: {peer}"
             );
+            assert_eq!(faulty["verdict"]["mode"], "sensor", "{faulty}");
+            assert_eq!(faulty["verdict"]["channel"], "voltage", "{faulty}");
             break car;
         }
         assert!(
@@ -374,6 +391,7 @@ fn the_dashboard_shows_which_elevator_needs_a_visit_in_chromium() {
     let profile = dir.path("chromium-profile");
     let fleet_url = format!("{}/#/", server.url);
     let car_url = format!("{}/#/elevator/{CAR}", server.url);
+    let sensor_url = format!("{}/#/elevator/{SENSOR}", server.url);
 
     // The fleet: the degraded car first, with its level in words and its drift in percent.
     let dom = headless(
@@ -393,7 +411,13 @@ fn the_dashboard_shows_which_elevator_needs_a_visit_in_chromium() {
         .expect("a fleet row for the car without a model");
     assert!(row < peer_row, "the car at risk comes first");
     assert!(peer_row < spare_row, "the car without a model comes last");
-    let car_row = &dom[row..peer_row];
+    // The row ends where the next begins (the sensor car, at advisory, may come between).
+    let row_end = |at: usize| {
+        dom[at + 1..]
+            .find("data-id=\"")
+            .map_or(dom.len(), |i| at + 1 + i)
+    };
+    let car_row = &dom[row..row_end(row)];
     assert!(
         car_row.contains(&format!("badge lv-{level}\">{level}<")),
         "its level, in words: {car_row}"
@@ -422,8 +446,24 @@ fn the_dashboard_shows_which_elevator_needs_a_visit_in_chromium() {
         "the healthy peer is normal"
     );
     assert!(
-        dom[spare_row..].contains("no model"),
+        dom[spare_row..row_end(spare_row)].contains("no model"),
         "the car without a model says so"
+    );
+    let sensor_row = dom
+        .find(&format!("data-id=\"{SENSOR}\""))
+        .expect("a fleet row for the car with the sensor fault");
+    assert!(
+        sensor_row < peer_row,
+        "the sensor advisory comes before the normal peer"
+    );
+    let sensor_row = &dom[sensor_row..row_end(sensor_row)];
+    assert!(
+        sensor_row.contains("<b>sensors</b>: <span class=\"channel\">motor voltage sensor</span>"),
+        "the broken sensor, in words: {sensor_row}"
+    );
+    assert!(
+        sensor_row.contains("check the motor voltage sensor and its wiring"),
+        "what to inspect, that sensor: {sensor_row}"
     );
     assert!(
         !dom.contains("class=\"error\" role=\"alert\">"),
@@ -457,6 +497,44 @@ fn the_dashboard_shows_which_elevator_needs_a_visit_in_chromium() {
         "no API error shown"
     );
 
+    // The elevator whose voltage sensor fails: the headline and the events name that sensor.
+    let dom = headless(
+        &bin,
+        &profile,
+        &["--window-size=1366,768".into(), "--dump-dom".into()],
+        &sensor_url,
+    );
+    let section = |start: &str| {
+        let at = dom
+            .find(start)
+            .unwrap_or_else(|| panic!("{start} on the page: {dom}"));
+        let end = dom[at..].find("</section>").map_or(dom.len(), |i| at + i);
+        dom[at..end].to_string()
+    };
+    let verdict = section("id=\"verdict\"");
+    assert!(
+        verdict.contains(
+            "ADVISORY (as of 2026-03-03 00:59 UTC+01:00), sensors: the motor voltage sensor \
+             (voltage channel); check the motor voltage sensor and its wiring: its data look wrong."
+        ),
+        "the headline names the broken sensor: {verdict}"
+    );
+    assert!(
+        verdict.contains("sensor (sensors), the voltage channel"),
+        "the mode names the channel: {verdict}"
+    );
+    let events = section("<h2>Events</h2>");
+    assert!(
+        events.contains(">sensors: motor voltage sensor</td>"),
+        "the event names the broken sensor: {events}"
+    );
+    for text in [&verdict, &events] {
+        assert!(
+            !text.contains("undefined") && !text.contains("null"),
+            "no undefined or null shown: {text}"
+        );
+    }
+
     let mut written = Vec::new();
     for (name, url, w, h) in [
         ("fleet-laptop.png", &fleet_url, 1366, 768),
@@ -465,6 +543,8 @@ fn the_dashboard_shows_which_elevator_needs_a_visit_in_chromium() {
         ("elevator-phone.png", &car_url, 390, 844),
         ("elevator-laptop-full.png", &car_url, 1366, 2600),
         ("elevator-phone-full.png", &car_url, 390, 6400),
+        ("sensor-laptop.png", &sensor_url, 1366, 768),
+        ("sensor-phone-full.png", &sensor_url, 390, 6400),
     ] {
         let png = shots.join(name);
         let _ = std::fs::remove_file(&png);

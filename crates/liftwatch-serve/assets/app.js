@@ -29,6 +29,15 @@
     motor: 'drive', brake: 'brake', friction: 'guide rails',
     sensor: 'sensors', unknown: 'machine (no single signature)',
   };
+  /** A `sensor` verdict's or event's channel, in the library's words (`Signal::sensor`). */
+  const CHANNEL = {
+    speed: 'speed sensor (encoder)', direction: 'direction signal', voltage: 'motor voltage sensor',
+    load: 'load-weighing sensor', door: 'door status signal', floor: 'floor indicator', current: 'motor current sensor',
+  };
+  const channelWords = (c) => CHANNEL[c] || `${c} sensor`;
+  /** `sensors: motor voltage sensor` for a sensor mode naming its channel, else the subsystem. */
+  const modeText = (mode, channel) =>
+    (SUBSYSTEM[mode] || mode || '') + (mode === 'sensor' && channel ? `: ${channelWords(channel)}` : '');
   const MACHINE = ['motor', 'brake', 'friction'];
   const MODE_COLOR = { motor: '#1f5fbf', brake: '#c2410c', friction: '#7e3fb3' };
   const LEVEL_RANK = { alarm: 3, advisory: 2, normal: 1, none: 0 };
@@ -385,7 +394,7 @@
 
   function searchText(s) {
     const v = s.verdict;
-    return [s.id, s.name, s.group, levelWord(levelOf(s)), v && v.mode, v && SUBSYSTEM[v.mode]]
+    return [s.id, s.name, s.group, levelWord(levelOf(s)), v && v.mode, v && SUBSYSTEM[v.mode], v && v.channel, v && v.channel && channelWords(v.channel)]
       .filter(Boolean).join(' ').toLowerCase();
   }
 
@@ -422,7 +431,9 @@
           (hd ? `<br><span class="small muted">largest drift ${esc(driftText(hd.drift))}</span>` : '');
       } else {
         const mode = SUBSYSTEM[v.mode] || v.mode;
-        why = `<b>${esc(mode)}</b>: <span class="drift num">${esc(hd ? driftText(hd.drift) : 'drift n/a')}</span>${since}`;
+        why = v.mode === 'sensor'
+          ? `<b>${esc(mode)}</b>: <span class="channel">${esc(v.channel ? channelWords(v.channel) : 'the data look wrong')}</span>${v.channel ? '' : since}`
+          : `<b>${esc(mode)}</b>: <span class="drift num">${esc(hd ? driftText(hd.drift) : 'drift n/a')}</span>${since}`;
       }
       const nc = nextCrossing(v);
       if (nc) fc = `<span>${esc(nc.text)}</span>${nc.range ? `<br><span class="small muted">${esc(nc.range.trim())}</span>` : ''}`;
@@ -806,7 +817,7 @@
     const LEVEL_COLOR = { alarm: '#b3261e', advisory: '#8a5000', normal: '#1e6b34' };
     const vlines = (events || []).map((e) => ({
       x: e.time, flag: true, color: LEVEL_COLOR[e.level] || '#4b5563',
-      title: `${e.level} (${SUBSYSTEM[e.mode] || e.mode}) ${instantText(e.time, clock)}`,
+      title: `${e.level} (${modeText(e.mode, e.channel)}) ${instantText(e.time, clock)}`,
     }));
     if (v && fin(v.since) && v.level !== 'normal') {
       vlines.push({ x: v.since, color: '#374151', dash: '2 4', title: `the change began ${instantText(v.since, clock)}` });
@@ -978,7 +989,7 @@
         const label = e.label === 'confirmed' ? '<span class="label-confirmed">confirmed</span>'
           : e.label === 'not_found' ? '<span class="label-not_found">not found</span>' : '<span class="muted">open</span>';
         return `<tr><td class="nowrap">${esc(whenText(e.time, e.time_text, clock))}</td><td>${badge(e.level || 'none')}</td>` +
-          `<td>${esc((SUBSYSTEM[e.mode] || e.mode || '') + (e.channel ? ` (${e.channel})` : ''))}</td><td class="num">${esc(sig(e.risk))}</td>` +
+          `<td>${esc(modeText(e.mode, e.channel))}</td><td class="num">${esc(sig(e.risk))}</td>` +
           `<td class="small">${esc(ev)}</td><td>${label}</td></tr>`;
       }).join('') + '</tbody></table></div>';
   }
@@ -1129,7 +1140,7 @@
         const v = s.verdict;
         const rr = riskRatio(v);
         return `<tr${s.id === me.id ? ' class="this"' : ''}><td><a href="${elevatorHref(s.id)}">${esc(displayName(s))}</a>${s.id === me.id ? ' (this one)' : ''}</td>` +
-          `<td>${badge(levelOf(s), s)}</td><td>${esc(v && v.level !== 'normal' ? (SUBSYSTEM[v.mode] || v.mode) : '\u2014')}</td>` +
+          `<td>${badge(levelOf(s), s)}</td><td>${esc(v && v.level !== 'normal' ? modeText(v.mode, v.channel) : '\u2014')}</td>` +
           `<td class="num">${esc(cell(s, 'motor'))}</td><td class="num">${esc(cell(s, 'friction'))}</td><td class="num">${esc(cell(s, 'brake'))}</td>` +
           `<td class="num">${rr === null ? 'n/a' : esc(sig(rr))}</td><td class="num">${esc(num(s.trips_per_day, 0))}</td>` +
           `<td class="small">lag ${esc(durationText(s.lag_s))}</td></tr>`;
@@ -1157,15 +1168,18 @@
       headline = `NORMAL${asOf}: consistent with the healthy reference (drifts ${(v.drifts || []).map(driftText).join(', ')}); ${v.inspect}.`;
     } else {
       const since = fin(v.since) ? ` since ${dayText(v.since, clock)}` : '';
-      const what = hd && hd.own ? driftText(hd.drift) : `drifts ${(v.drifts || []).map(driftText).join(', ')}`;
-      const channel = v.channel ? ` (${v.channel} channel)` : '';
-      headline = `${lv.toUpperCase()}${asOf}, ${SUBSYSTEM[v.mode] || v.mode}${channel}: ${what}${since}; ${v.inspect}.`;
+      // As `status` says it: a sensor verdict that names its channel says which sensor, without
+      // the machine's drifts (they stay in the Drifts row below) and the machine's `since`.
+      const named = v.mode === 'sensor' && v.channel;
+      const what = named ? `the ${channelWords(v.channel)} (${v.channel} channel)`
+        : hd && hd.own ? driftText(hd.drift) : `drifts ${(v.drifts || []).map(driftText).join(', ')}`;
+      headline = `${lv.toUpperCase()}${asOf}, ${SUBSYSTEM[v.mode] || v.mode}: ${what}${named ? '' : since}; ${v.inspect}.`;
     }
     const caveats = Array.isArray(v.caveats) && v.caveats.length ? v.caveats.join('; ') : 'none from the model.';
     return `<section class="card verdict lv-${esc(lv)}" id="verdict"><h2>Verdict ${badge(lv)}</h2>` +
       `<p class="headline">${esc(headline)}</p><dl>` +
       `<dt>Level</dt><dd>${esc(lv)}${fin(v.since) && lv !== 'normal' ? `, the change began ${esc(dayText(v.since, clock))}` : ''}</dd>` +
-      `<dt>Mode</dt><dd>${esc(lv === 'normal' ? 'none (normal)' : (SUBSYSTEM[v.mode] && SUBSYSTEM[v.mode] !== v.mode ? `${v.mode} (${SUBSYSTEM[v.mode]})` : v.mode))}</dd>` +
+      `<dt>Mode</dt><dd>${esc(lv === 'normal' ? 'none (normal)' : (SUBSYSTEM[v.mode] && SUBSYSTEM[v.mode] !== v.mode ? `${v.mode} (${SUBSYSTEM[v.mode]})` : v.mode) + (lv !== 'normal' && v.mode === 'sensor' && v.channel ? `, the ${v.channel} channel` : ''))}</dd>` +
       `<dt>Drifts</dt><dd>${esc((v.drifts || []).map(driftText).join('; '))}</dd>` +
       `<dt>Inspect</dt><dd>${esc(v.inspect)}</dd>` +
       `<dt>Forecast</dt><dd>${esc(forecastSentence(v, clock))}</dd>` +

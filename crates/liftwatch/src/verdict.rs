@@ -280,17 +280,18 @@ impl Verdict {
             })
             .collect();
         let fc = state.forecast(model);
+        let channel = state.sensor_channel(model);
         Verdict {
             level,
             mode,
-            channel: state.sensor_channel(model),
+            channel,
             time: state.last_time,
             since,
             drifts,
-            inspect: if level == Level::Normal {
-                "no action: keep monitoring"
-            } else {
-                mode.inspect()
+            inspect: match (level, channel) {
+                (Level::Normal, _) => "no action: keep monitoring",
+                (_, Some(c)) if mode == FaultMode::Sensor => c.inspect(),
+                _ => mode.inspect(),
             },
             forecast: fc,
             risk: [a.risk, cfg.advisory, cfg.alarm],
@@ -342,18 +343,25 @@ impl Verdict {
         let since = self
             .since
             .map_or(String::new(), |t| format!(" since {}", day_text(t)));
-        let what = match self.drifts.iter().find(|d| d.mode == self.mode) {
-            Some(d) => drift_text(d),
-            None => {
+        // A sensor verdict that names its channel says which sensor, without the machine's
+        // drifts (read through that sensor, they are not what is wrong) and without `since`,
+        // the machine's change (the sensor's own event in the events file says when).
+        let (what, since) = match (
+            self.channel,
+            self.drifts.iter().find(|d| d.mode == self.mode),
+        ) {
+            (Some(c), _) if self.mode == FaultMode::Sensor => (
+                format!("the {} ({} channel)", c.sensor(), c.name()),
+                String::new(),
+            ),
+            (_, Some(d)) => (drift_text(d), since),
+            _ => {
                 let ds: Vec<String> = self.drifts.iter().map(drift_text).collect();
-                format!("drifts {}", ds.join(", "))
+                (format!("drifts {}", ds.join(", ")), since)
             }
         };
-        let channel = self
-            .channel
-            .map_or(String::new(), |c| format!(" ({} channel)", c.name()));
         format!(
-            "{}{at}, {}{channel}: {what}{since}; {}.",
+            "{}{at}, {}: {what}{since}; {}.",
             self.level.as_str().to_uppercase(),
             self.mode.subsystem(),
             self.inspect

@@ -92,6 +92,34 @@ impl Signal {
         }
     }
 
+    /// The sensor behind the signal, in a maintenance engineer's words (what `status`, the
+    /// report and the dashboard name when a check finds its readings wrong).
+    pub fn sensor(self) -> &'static str {
+        match self {
+            Signal::Speed => "speed sensor (encoder)",
+            Signal::Direction => "direction signal",
+            Signal::Voltage => "motor voltage sensor",
+            Signal::Load => "load-weighing sensor",
+            Signal::Door => "door status signal",
+            Signal::Floor => "floor indicator",
+            Signal::Current => "motor current sensor",
+        }
+    }
+
+    /// What to inspect when the checks find this signal's readings wrong: that one sensor,
+    /// where [`FaultMode::Sensor`](crate::mode::FaultMode::Sensor) alone names the usual three.
+    pub fn inspect(self) -> &'static str {
+        match self {
+            Signal::Speed => "check the speed sensor (encoder) and its wiring: its data look wrong",
+            Signal::Direction => "check the direction signal and its wiring: its data look wrong",
+            Signal::Voltage => "check the motor voltage sensor and its wiring: its data look wrong",
+            Signal::Load => "check the load-weighing sensor and its wiring: its data look wrong",
+            Signal::Door => "check the door status signal and its wiring: its data look wrong",
+            Signal::Floor => "check the floor indicator and its wiring: its data look wrong",
+            Signal::Current => "check the motor current sensor and its wiring: its data look wrong",
+        }
+    }
+
     /// The signal named `name` (ASCII case-insensitive, already trimmed).
     pub fn from_name(name: &[u8]) -> Option<Signal> {
         // Exact lowercase names first: the common case costs one slice comparison.

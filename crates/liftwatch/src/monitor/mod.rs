@@ -1020,8 +1020,12 @@ mod tests {
             (v.level, v.mode, v.channel),
             (Level::Advisory, FaultMode::Sensor, Some(Signal::Speed))
         );
+        // The headline names that sensor, and what to inspect is that sensor alone.
         assert!(
-            v.lines()[0].contains("sensors (speed channel)"),
+            v.lines()[0].contains(
+                "sensors: the speed sensor (encoder) (speed channel); check the speed sensor \
+                 (encoder) and its wiring: its data look wrong."
+            ),
             "{}",
             v.lines()[0]
         );

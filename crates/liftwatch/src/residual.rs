@@ -104,6 +104,7 @@ pub fn applicable(x: &FeatureRow) -> bool {
 }
 
 pub use crate::model::net_inputs;
+use crate::model::{rest_lambda, rest_lambda_grid};
 
 /// Memo of the network's outputs, keyed by the exact network inputs: the last call's, and
 /// every input at rest seen so far.
@@ -117,13 +118,21 @@ pub use crate::model::net_inputs;
 /// inputs' bits. One cache serves one model, as the last call's output always did.
 #[derive(Clone, Debug, Default)]
 pub struct PredictionCache {
-    key: Option<[u64; 3]>,
+    key: Option<Key>,
     du: f64,
     df: f64,
     /// Outputs at rest, inputs (0, λ, 0): slot [`rest_slot`] of λ holds λ's bits and the
     /// output; empty until the first standstill sample (a cache that never sees one, as in
     /// the fit's per-trip sums, allocates nothing).
     rest: Vec<Option<(u64, [f64; 2])>>,
+}
+
+/// What [`PredictionCache`] keys its last output by: the bits of λ's grid steps at rest,
+/// of (v, λ, a) while moving.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Key {
+    Rest(u64),
+    Moving([u64; 3]),
 }
 
 /// Slots of [`PredictionCache`]'s table of outputs at rest, 8 KiB, held by every monitor
@@ -133,45 +142,47 @@ pub struct PredictionCache {
 /// passes for eight times the memory.
 const REST_SLOTS: usize = 256;
 
-/// Slots per unit of λ: [`net_inputs`]' rounding grid, 0.001 of the rated load.
-const REST_SLOTS_PER_LAMBDA: f64 = 1000.0;
-
-/// The slot of λ in the table of outputs at rest: λ on the 0.001 grid to the nearest
-/// integer (plus a half and truncated: no call to `round`), wrapped into the table. Only
-/// where an entry is looked for; whether it is λ's is decided by its bits.
-fn rest_slot(lambda: f64) -> usize {
+/// The slot of λ's grid steps ([`rest_lambda_grid`]) in the table of outputs at rest,
+/// wrapped into the table. Only where an entry is looked for; whether it is λ's is decided
+/// by its bits.
+fn rest_slot(steps: f64) -> usize {
     // `as` saturates (NaN to 0); the wrap keeps any λ inside the table.
-    ((lambda * REST_SLOTS_PER_LAMBDA + 0.5) as i64 as usize) % REST_SLOTS
+    (steps as i64 as usize) % REST_SLOTS
 }
 
 impl PredictionCache {
     /// The prediction for `x`, reusing the network output when its inputs equal the last
     /// call's or an input at rest seen before.
     pub fn predict(&mut self, model: &HybridModel, x: &FeatureRow) -> Prediction {
-        let (v, lambda, a) = net_inputs(x);
-        let key = [v.to_bits(), lambda.to_bits(), a.to_bits()];
+        // At rest the key is λ's grid steps ([`net_inputs`]' λ before its division, one to
+        // one with it), so that a hit costs no division.
+        let key = if x.s == 0 {
+            Key::Rest(rest_lambda_grid(x.lambda).to_bits())
+        } else {
+            Key::Moving([x.v.to_bits(), x.lambda.to_bits(), x.a.to_bits()])
+        };
         if self.key != Some(key) {
-            let [du, df] = if key[0] == 0 && key[2] == 0 {
-                self.at_rest(model, lambda)
-            } else {
-                model.net.forward(v, lambda, a)
+            let [du, df] = match key {
+                Key::Rest(steps) => self.at_rest(model, f64::from_bits(steps)),
+                Key::Moving(_) => model.net.forward(x.v, x.lambda, x.a),
             };
             (self.key, self.du, self.df) = (Some(key), du, df);
         }
         model.predict_with(x, [self.du, self.df])
     }
 
-    /// The network's output at (+0, λ, +0), from the table or by one pass stored there.
-    fn at_rest(&mut self, model: &HybridModel, lambda: f64) -> [f64; 2] {
+    /// The network's output at (+0, λ, +0) for λ of `steps` grid steps, from the table or by
+    /// one pass stored there.
+    fn at_rest(&mut self, model: &HybridModel, steps: f64) -> [f64; 2] {
         if self.rest.is_empty() {
             self.rest = vec![None; REST_SLOTS];
         }
-        let bits = lambda.to_bits();
-        let slot = &mut self.rest[rest_slot(lambda)];
+        let bits = steps.to_bits();
+        let slot = &mut self.rest[rest_slot(steps)];
         match *slot {
             Some((k, y)) if k == bits => y,
             _ => {
-                let y = model.net.forward(0.0, lambda, 0.0);
+                let y = model.net.forward(0.0, rest_lambda(steps), 0.0);
                 *slot = Some((bits, y));
                 y
             }
@@ -304,8 +315,8 @@ pub(crate) mod tests {
             *w = rng.uniform(-0.5, 0.5);
         }
         assert_eq!(
-            rest_slot(0.952),
-            rest_slot(3.0),
+            rest_slot(rest_lambda_grid(0.952)),
+            rest_slot(rest_lambda_grid(3.0)),
             "the test's λ share a slot"
         );
         let mut cache = PredictionCache::default();
@@ -320,6 +331,10 @@ pub(crate) mod tests {
             row(&m, 5.0, 0.0, 3.0, 0.0, 1.0),
             row(&m, 6.0, 0.0, 0.952, 0.0, 1.0),
             row(&m, 7.0, 0.0, 0.3, 0.0, -1.0),
+            // λ a hair below zero rounds to −0, a half step away from zero.
+            row(&m, 8.0, 0.0, -0.0003, 0.0, 1.0),
+            row(&m, 9.0, 0.0, -0.0, 0.0, 1.0),
+            row(&m, 10.0, 0.0, 0.0005, 0.0, 1.0),
         ] {
             let (a, b) = (cache.residuals(&m, &x), Residuals::compute(&m, &x));
             let bits = |r: Residuals| [r.r_u, r.r_f, r.e_u, r.e_f, r.e].map(f64::to_bits);

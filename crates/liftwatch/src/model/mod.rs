@@ -95,10 +95,94 @@ impl HybridModel {
 /// network's [`net::InputDomain`], not pushed to the slowest speed seen moving.
 pub fn net_inputs(x: &FeatureRow) -> (f64, f64, f64) {
     if x.s == 0 {
-        // λ to 0.1 % of rated load: the door-closed reference is a running mean that moves in
-        // the last digits with every sample; the correction does not.
-        (0.0, (x.lambda * 1000.0).round() / 1000.0, 0.0)
+        (0.0, rest_lambda(rest_lambda_grid(x.lambda)), 0.0)
     } else {
         (x.v, x.lambda, x.a)
+    }
+}
+
+/// Steps of λ per unit of rated load at rest: λ to 0.1 % of the rated load. The door-closed
+/// reference is a running mean that moves in the last digits with every sample; the
+/// correction does not.
+pub const REST_LAMBDA_STEPS: f64 = 1000.0;
+
+/// λ at rest on its grid, in grid steps: λ·1000 rounded (an integer as a float). What a memo
+/// of outputs at rest keys on ([`crate::residual::PredictionCache`]): one multiplication,
+/// where the λ the network sees ([`rest_lambda`]) costs a division more.
+pub fn rest_lambda_grid(lambda: f64) -> f64 {
+    round_half_away(lambda * REST_LAMBDA_STEPS)
+}
+
+/// The network's λ at rest from its grid steps ([`rest_lambda_grid`]).
+pub fn rest_lambda(steps: f64) -> f64 {
+    steps / REST_LAMBDA_STEPS
+}
+
+/// 2⁵²: from here on in magnitude every float is an integer.
+const INTEGRAL_FLOATS: f64 = 4_503_599_627_370_496.0;
+
+/// `y.round()` (halves away from zero) to the bit, without the call to `round` that the
+/// baseline x86-64 target makes: the truncation toward zero, one more away from zero when the
+/// fraction it dropped is a half or more (the fraction of a float is a float, so `y − t` is
+/// exact), the sign of `y` kept (−0.3 rounds to −0). A float of 2⁵² or more in magnitude, ±∞
+/// and NaN are their own rounding.
+pub fn round_half_away(y: f64) -> f64 {
+    if !(y.abs() < INTEGRAL_FLOATS) {
+        return y;
+    }
+    let t = (y as i64) as f64;
+    let f = y - t;
+    let r = if f >= 0.5 {
+        t + 1.0
+    } else if f <= -0.5 {
+        t - 1.0
+    } else {
+        t
+    };
+    r.copysign(y)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn round_half_away_is_the_bits_of_round() {
+        let mut rng = crate::rng::Rng::new(9);
+        let mut ys = vec![
+            0.0,
+            -0.0,
+            0.3,
+            -0.3,
+            0.5,
+            -0.5,
+            1.5,
+            -1.5,
+            2.5,
+            -2.5,
+            0.499_999_999_999_999_94,
+            -0.499_999_999_999_999_94,
+            4_503_599_627_370_495.5,
+            -4_503_599_627_370_495.5,
+            4_503_599_627_370_496.0,
+            9.0e15,
+            1e300,
+            -1e300,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::MIN_POSITIVE,
+            -f64::MIN_POSITIVE,
+            952.000_000_000_000_1,
+            999.499_999_999_999_9,
+        ];
+        for _ in 0..100_000 {
+            // λ·1000 as the monitor meets it, and halves on and around the grid.
+            let y = rng.uniform(-3000.0, 3000.0);
+            ys.extend([y, y.trunc() + 0.5, y.trunc() - 0.5]);
+        }
+        for y in ys {
+            assert_eq!(round_half_away(y).to_bits(), y.round().to_bits(), "{y:e}");
+        }
+        assert!(round_half_away(f64::NAN).is_nan());
     }
 }

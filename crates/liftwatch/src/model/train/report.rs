@@ -193,7 +193,28 @@ pub(super) fn param_reports(
         "m0 is an apparent inertia: each 10 ms of latency of the voltage channel behind the speed channel lowers it by {:.0} kg",
         p.ke * LATENCY_STEP_S / p.kd
     ));
+    warnings.extend(lagging_voltage_note(p, prior.centre.m0));
     (reps, warnings, Some(cov))
+}
+
+/// Below this share of the M0 the elevator's description makes typical, the fitted M0 is no
+/// mass: a real car and its counterweight alone weigh more, so it is timing (the voltage
+/// channel lagging the speed channel fakes a negative inertia, and the fit stops M0 at 0).
+const IMPLAUSIBLE_M0_SHARE: f64 = 0.5;
+
+/// The note for an M0 too small to be a mass, with the voltage channel's lag behind the speed
+/// channel that would explain it: Δτ ≈ Kd·(M0_typical − M0)/Ke. On a simulated 630 kg car
+/// whose voltage reading lags its speed reading by 47 ms, M0 came out 0 kg (true 1,983) and
+/// this says about 40 ms.
+fn lagging_voltage_note(p: &PhysParams, typical_m0: f64) -> Option<String> {
+    (p.m0 < IMPLAUSIBLE_M0_SHARE * typical_m0 && p.ke > 0.0).then(|| {
+        format!(
+            "m0 is {:.0} kg, under half of the {:.0} kg this elevator's description makes typical: not a mass but timing; the voltage channel probably lags the speed channel by about {:.0} ms, which 1 Hz data cannot tell from inertia (check the logger's timestamps)",
+            p.m0,
+            typical_m0,
+            1000.0 * p.kd * (typical_m0 - p.m0) / p.ke
+        )
+    })
 }
 
 /// Sets each report's `corrected` value, parameters and combinations alike, from θ fitted
@@ -263,4 +284,47 @@ fn combinations(p: &PhysParams, cov: &SquareMatrix) -> [ParamReport; 2] {
             p.ke + p.alpha_down * p.kd * p.c_visc,
         ),
     ]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::elevator::Elevator;
+
+    /// The lag in ms a note states.
+    fn stated_ms(note: &str) -> f64 {
+        note.split("by about ")
+            .nth(1)
+            .and_then(|t| t.split(' ').next())
+            .and_then(|t| t.parse().ok())
+            .expect("the note states the lag in ms")
+    }
+
+    #[test]
+    fn an_m0_too_small_for_a_mass_is_read_as_the_voltage_lagging() {
+        let e = Elevator::new(630.0, 1.0, 8);
+        let mut p = PhysParams::prior_centre(&e);
+        let typical = p.m0;
+        assert_eq!(
+            lagging_voltage_note(&p, typical),
+            None,
+            "a typical M0 is a mass"
+        );
+        // A voltage lagging the speed by Δτ takes Ke·Δτ/Kd off the apparent mass: here 70 %
+        // of it, which the note turns back into Δτ.
+        let lag_ms = 1000.0 * 0.7 * typical * p.kd / p.ke;
+        p.m0 = 0.3 * typical;
+        let note = lagging_voltage_note(&p, typical).expect("an M0 far below typical is noted");
+        assert!(
+            (stated_ms(&note) - lag_ms).abs() <= 0.5,
+            "{note} vs {lag_ms:.1} ms"
+        );
+        // A longer lag stops M0 at its bound of 0: the note's lag is then a lower bound.
+        p.m0 = 0.0;
+        let note = lagging_voltage_note(&p, typical).expect("M0 at 0 is noted");
+        assert!(stated_ms(&note) > lag_ms, "{note}");
+        // Just above half of typical, nothing is said.
+        p.m0 = 0.51 * typical;
+        assert_eq!(lagging_voltage_note(&p, typical), None);
+    }
 }

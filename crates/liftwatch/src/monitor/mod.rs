@@ -289,6 +289,43 @@ pub struct MonitorState {
     pub backlog_trips: u64,
 }
 
+/// The path of the first number of the risk stage's accumulators (its recursive
+/// least-squares sums, R and the CUSUMs) that is not finite, if any: sums of finite trips, they
+/// are finite in every state the monitor writes, and a NaN among them keeps the risk from ever
+/// rising again. The latest assessment (`risk.last`) is left out: its drifts are NaN where
+/// the decision holds no change, and the next trip forms it anew.
+fn non_finite_accumulator(state: &serde_json::Value) -> Option<String> {
+    fn walk(v: &serde_json::Value, path: &mut String) -> Option<String> {
+        use serde_json::Value;
+        match v {
+            Value::String(t) => t
+                .parse::<f64>()
+                .is_ok_and(|x| !x.is_finite())
+                .then(|| path.clone()),
+            Value::Array(items) => items.iter().enumerate().find_map(|(i, x)| {
+                let len = path.len();
+                path.push_str(&format!("[{i}]"));
+                let found = walk(x, path);
+                path.truncate(len);
+                found
+            }),
+            Value::Object(fields) => fields.iter().find_map(|(k, x)| {
+                let len = path.len();
+                path.push('.');
+                path.push_str(k);
+                let found = walk(x, path);
+                path.truncate(len);
+                found
+            }),
+            _ => None,
+        }
+    }
+    let risk = state.get("risk")?.as_object()?;
+    risk.iter()
+        .filter(|(k, _)| k.as_str() != "last")
+        .find_map(|(k, x)| walk(x, &mut format!("risk.{k}")))
+}
+
 impl MonitorState {
     /// Reads a state file.
     ///
@@ -315,11 +352,24 @@ impl MonitorState {
         let v: serde_json::Value = serde_json::from_slice(text).map_err(|e| bad(e.to_string()))?;
         let version = v.get("format_version").and_then(serde_json::Value::as_u64);
         if version != Some(u64::from(STATE_VERSION)) {
+            let found = version.map_or("missing".to_string(), |n| n.to_string());
             return Err(bad(format!(
-                "format_version {version:?}, expected {STATE_VERSION}"
+                "format_version {found}, expected {STATE_VERSION}"
             )));
         }
-        serde_json::from_value(v).map_err(|e| bad(e.to_string()))
+        if let Some(path) = non_finite_accumulator(&v) {
+            return Err(bad(format!(
+                "{path} is not a finite number, which no state the monitor writes holds there (edited or corrupted?): resumed, the risk would stay blind"
+            )));
+        }
+        let state: MonitorState = serde_json::from_value(v).map_err(|e| bad(e.to_string()))?;
+        if state.samples > 0 && !state.last_time.is_finite() {
+            return Err(bad(format!(
+                "last_time is {} after {} samples: the time the state covers is lost (edited or corrupted?)",
+                state.last_time, state.samples
+            )));
+        }
+        Ok(state)
     }
 
     /// Writes the state atomically and durably ([`write_atomic`]).
@@ -926,6 +976,42 @@ mod tests {
             Err(Error::StateMismatch(_))
         ));
         assert!(Monitor::resume(&model, state).is_ok());
+    }
+
+    #[test]
+    fn a_state_with_a_non_finite_accumulator_or_time_is_refused() {
+        let model = test_model();
+        let mut m = Monitor::new(&model, Method::Pinn);
+        for x in &samples(0.1, 4, None) {
+            let _ = m.push(x);
+        }
+        assert!(m.state_ref().risk_trips() > 0, "the state has seen trips");
+        let good = serde_json::to_value(m.state_ref()).unwrap();
+        let read = |v: &serde_json::Value| {
+            MonitorState::from_slice(&serde_json::to_vec(v).unwrap(), Path::new("s.json"))
+        };
+        // A state the monitor wrote reads back, NaN drifts of its last assessment and all.
+        assert!(read(&good).is_ok());
+        for (edit, named) in [
+            (&["risk", "combined", "r"][..], "risk.combined.r"),
+            (&["risk", "s2"][..], "risk.s2"),
+            (&["last_time"][..], "last_time"),
+        ] {
+            let mut v = good.clone();
+            let mut at = &mut v;
+            for k in edit {
+                at = &mut at[*k];
+            }
+            *at = "NaN".into();
+            let err = read(&v).expect_err("a NaN there is refused").to_string();
+            assert!(err.contains(named), "{err}");
+        }
+        let mut v = good.clone();
+        v["risk"]["rls"]["a"][0] = "inf".into();
+        let err = read(&v)
+            .expect_err("an infinite sum is refused")
+            .to_string();
+        assert!(err.contains("risk.rls.a[0]"), "{err}");
     }
 
     #[test]

@@ -2,6 +2,7 @@
 //!
 //! ```text
 //! -            standard input, copied to an unlinked spool file while it is read
+//! pipe, device a path that is no regular file (a FIFO, `<(zcat log.gz)`): spooled the same way
 //! NAME.gz      gzip, decompressed while it is read (several members allowed, as `cat a.gz b.gz`)
 //! NAME.zst     zstd, decompressed while it is read (several frames allowed, as `cat a.zst b.zst`)
 //! anything     read as it is
@@ -10,7 +11,7 @@
 //! Alignment may read its input a second time (a row later than the reorder window, a
 //! `current` column appearing late, an aligned file at another step), so every input is
 //! [`Seek`]able back to its start: a compressed file is reopened and decompressed again, and
-//! standard input is replayed from its spool. The spool costs one copy of the piped bytes on
+//! standard input (or a pipe) is replayed from its spool. The spool costs one copy of the piped bytes on
 //! the temporary directory's disk, never memory; it is unlinked as soon as it is created, so
 //! nothing is left behind by a kill.
 
@@ -72,7 +73,7 @@ enum Inner {
     /// Boxed: a decoder's state is several times the size of the other variants.
     Gzip(Box<MultiGzDecoder<BufReader<File>>>, PathBuf),
     Zstd(Box<ZstdDecoder>, PathBuf),
-    Stdin(Spool),
+    Spooled(Spool),
 }
 
 impl Input {
@@ -84,13 +85,23 @@ impl Input {
     pub fn open(path: &Path) -> Result<Input> {
         if is_stdio(path) {
             let name = PathBuf::from(STDIN_NAME);
-            let spool = Spool::new().map_err(|e| Error::io(&name, e))?;
+            let spool = Spool::new(Box::new(io::stdin())).map_err(|e| Error::io(&name, e))?;
             return Ok(Input {
                 name,
-                inner: Inner::Stdin(spool),
+                inner: Inner::Spooled(spool),
             });
         }
         let file = File::open(path).map_err(|e| Error::io(path, e))?;
+        let regular = file.metadata().map_err(|e| Error::io(path, e))?.is_file();
+        if !regular && Compression::of(path) == Compression::None {
+            // A pipe (`<(zcat log.gz)`, a FIFO) or a device reads once: spooled like standard
+            // input, so that alignment's second pass can read it again.
+            let spool = Spool::new(Box::new(file)).map_err(|e| Error::io(path, e))?;
+            return Ok(Input {
+                name: path.to_path_buf(),
+                inner: Inner::Spooled(spool),
+            });
+        }
         let inner = match Compression::of(path) {
             Compression::None => Inner::File(file),
             Compression::Gzip => Inner::Gzip(Box::new(gunzip(file)), path.to_path_buf()),
@@ -128,7 +139,7 @@ impl Read for Input {
             Inner::File(f) => f.read(buf),
             Inner::Gzip(d, _) => d.read(buf),
             Inner::Zstd(d, _) => d.read(buf),
-            Inner::Stdin(s) => s.read(buf),
+            Inner::Spooled(s) => s.read(buf),
         }
     }
 }
@@ -147,7 +158,7 @@ impl Seek for Input {
                 **d = unzstd(File::open(&*path)?)?;
                 Ok(0)
             }
-            (Inner::Stdin(s), SeekFrom::Start(0)) => {
+            (Inner::Spooled(s), SeekFrom::Start(0)) => {
                 s.pos = 0;
                 Ok(0)
             }
@@ -159,9 +170,10 @@ impl Seek for Input {
     }
 }
 
-/// Standard input, copied to a spool file as it is read, so that it can be read again.
+/// Standard input, or a pipe or device given by its path, copied to a spool file as it is
+/// read, so that it can be read again.
 struct Spool {
-    stdin: io::Stdin,
+    source: Box<dyn Read + Send>,
     file: File,
     /// Bytes copied to the spool so far.
     len: u64,
@@ -172,7 +184,7 @@ struct Spool {
 }
 
 impl Spool {
-    fn new() -> io::Result<Spool> {
+    fn new(source: Box<dyn Read + Send>) -> io::Result<Spool> {
         let n = NEXT_SPOOL.fetch_add(1, Ordering::Relaxed);
         let path =
             std::env::temp_dir().join(format!(".liftwatch-stdin.{}.{n}.spool", std::process::id()));
@@ -184,7 +196,7 @@ impl Spool {
         // Unlinked at once: the open handle keeps the bytes, and no exit path leaves the file.
         std::fs::remove_file(&path)?;
         Ok(Spool {
-            stdin: io::stdin(),
+            source,
             file,
             len: 0,
             pos: 0,
@@ -211,7 +223,7 @@ impl Read for Spool {
             self.cursor += n as u64;
             return Ok(n);
         }
-        let n = self.stdin.lock().read(buf)?;
+        let n = self.source.read(buf)?;
         if n > 0 {
             self.seek_file(self.len)?;
             self.file.write_all(&buf[..n])?;
@@ -287,6 +299,32 @@ pub(crate) mod tests {
         got.clear();
         input.read_to_end(&mut got).unwrap();
         assert_eq!(got, [a, b].concat(), "read again from the start");
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn a_fifo_reads_and_rewinds_to_its_text() {
+        let dir = scratch("input-fifo");
+        let path = dir.join("raw.csv");
+        let made = std::process::Command::new("mkfifo").arg(&path).status();
+        if !made.is_ok_and(|s| s.success()) {
+            eprintln!("skipped: mkfifo is not available");
+            return;
+        }
+        let text = b"time,signal,value\n0,speed,0\n1,speed,1\n";
+        let writer = {
+            let path = path.clone();
+            std::thread::spawn(move || std::fs::write(path, text).unwrap())
+        };
+        let mut input = Input::open(&path).unwrap();
+        let mut got = Vec::new();
+        input.read_to_end(&mut got).unwrap();
+        writer.join().unwrap();
+        assert_eq!(got, text);
+        input.seek(SeekFrom::Start(0)).unwrap();
+        got.clear();
+        input.read_to_end(&mut got).unwrap();
+        assert_eq!(got, text, "read again from its spool, as a pipe reads once");
     }
 
     #[test]

@@ -25,7 +25,7 @@
 
 use std::io::{self, Read};
 
-use crate::limits::{LineBounded, MAX_LINE_BYTES};
+use crate::limits::LineBounded;
 
 /// Bytes read from the file at a time.
 const CHUNK_BYTES: usize = 1 << 16;
@@ -56,7 +56,7 @@ pub struct Records<R> {
 }
 
 impl<R: Read> Records<R> {
-    /// Records of `input`; a line longer than [`MAX_LINE_BYTES`] fails the read.
+    /// Records of `input`; a line longer than [`MAX_LINE_BYTES`](crate::limits::MAX_LINE_BYTES) fails the read.
     pub fn new(input: R) -> Self {
         Records {
             src: LineBounded::new(input),
@@ -128,7 +128,7 @@ impl<R: Read> Records<R> {
     /// Reads the next record; `false` at the end of the file.
     ///
     /// # Errors
-    /// A read error, or a line longer than [`MAX_LINE_BYTES`].
+    /// A read error, or a line longer than [`MAX_LINE_BYTES`](crate::limits::MAX_LINE_BYTES).
     pub fn read(&mut self) -> io::Result<bool> {
         self.n_fields = 0;
         loop {

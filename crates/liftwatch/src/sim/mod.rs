@@ -183,8 +183,19 @@ impl SimConfig {
                 format!("{} must be above 0 and at most 3660", self.days),
             );
         }
-        if !self.start_s.is_finite() {
-            return bad("start_s", format!("{} must be finite", self.start_s));
+        // Every time the run writes must be one the readers take back
+        // (ingest::time::MAX_ABS_TIME_S): a start beyond it wrote logs no command could read,
+        // and near 1e12 s a second no longer moved the clock, so the run never ended.
+        let last = crate::ingest::time::MAX_ABS_TIME_S - self.days * 86_400.0;
+        if !(self.start_s.is_finite() && self.start_s.abs() <= last) {
+            return bad(
+                "start_s",
+                format!(
+                    "{} s must lie within ±{last:.0} s, so that the run's times stay within ±{:.0e} s",
+                    self.start_s,
+                    crate::ingest::time::MAX_ABS_TIME_S
+                ),
+            );
         }
         if !(self.traffic_scale.is_finite()
             && self.traffic_scale > 0.0

@@ -37,9 +37,10 @@ pub struct Args {
     /// Seed of the network's initial weights.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// Alignment step (s) for raw input.
-    #[arg(long, default_value_t = 1.0)]
-    pub step: f64,
+    /// Step (s) the model is fitted at: raw input is aligned at it (1 s when left out);
+    /// aligned input is read at its own step unless this asks for another.
+    #[arg(long)]
+    pub step: Option<f64>,
     /// The alarm budget: false advisories per elevator-year the calibration aims at (stored
     /// in the model).
     #[arg(long = "false-advisories-per-year", default_value_t = 1.0)]
@@ -48,6 +49,9 @@ pub struct Args {
     #[command(flatten)]
     pub ui: UiArgs,
 }
+
+/// The step raw input is aligned at when `--step` is left out (s): alignment's default.
+const DEFAULT_STEP_S: f64 = 1.0;
 
 /// The optimiser choice on the command line.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -72,8 +76,24 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .validate()
         .context("--false-advisories-per-year")?;
     let elevator = Elevator::from_toml_file(&args.elevator)?;
-    let align = AlignConfig::default().with_step(args.step)?;
-    let (series, report) = read_series(&args.input, &align)?;
+    let align = AlignConfig::default().with_step(args.step.unwrap_or(DEFAULT_STEP_S))?;
+    let (mut series, mut report) = read_series(&args.input, &align)?;
+    let found = report.input_step_s.abs();
+    if found.is_finite() && found > 0.0 && (found - align.step_s).abs() > 1e-3 * align.step_s {
+        if args.step.is_none() {
+            // Aligned input keeps its step: re-stepped by interpolation it would be fitted at
+            // a step the data do not have, and the model would record that step.
+            (series, report) = read_series(&args.input, &AlignConfig::default().with_step(found)?)?;
+        } else {
+            warn(
+                &args.input,
+                &format!(
+                    "aligned at a step of {found} s, re-stepped to --step {} s by interpolation",
+                    align.step_s
+                ),
+            );
+        }
+    }
     if let Some(w) = report.warning() {
         warn(&args.input, &w);
     }

@@ -49,8 +49,10 @@ pub fn model_step(model: &FittedModel, flag: Option<f64>) -> anyhow::Result<(f64
 /// # Errors
 /// One line naming both steps.
 pub fn check_input_step(step: f64, report: &IngestReport, input: &str) -> anyhow::Result<()> {
-    let found = report.input_step_s;
-    if found.is_finite() && differs(found, step) {
+    // The step between rows as they come: a file written newest first shows −1 s, and the
+    // alignment sorts it (as `align` does); rows all at one time show none.
+    let found = report.input_step_s.abs();
+    if found.is_finite() && found > 0.0 && differs(found, step) {
         anyhow::bail!(
             "{input}: aligned at a step of {found} s, the model's step is {step} s: align the raw log at {step} s or refit at {found} s"
         );

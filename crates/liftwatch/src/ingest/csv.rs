@@ -90,8 +90,11 @@ fn time_reason(field: &[u8], err: TimeError, form: Option<TimeForm>) -> String {
 pub struct RowReader<R: Read> {
     rec: Records<R>,
     layout: Layout,
-    /// Fields every row must have: the header's count.
+    /// Fields a row has: the header's count; it may have fewer where the header ends in
+    /// blank names (down to `min_fields`), or more that are blank (a trailing comma on the
+    /// rows or the header alone).
     fields: usize,
+    min_fields: usize,
     /// Aligned layout: column of the optional `current` signal.
     current_col: Option<usize>,
     form: Option<TimeForm>,
@@ -109,6 +112,7 @@ impl<R: Read> RowReader<R> {
             rec: Records::new(input),
             layout: Layout::Raw,
             fields: 0,
+            min_fields: 0,
             current_col: None,
             form: None,
             path: path.to_path_buf(),
@@ -148,7 +152,20 @@ impl<R: Read> RowReader<R> {
         } else {
             return Err(Error::UnknownLayout { path: reader.path });
         }
+        let named = names.len() - names.iter().rev().take_while(|n| n.is_empty()).count();
+        reader.min_fields = named.max(reader.current_col.map_or(0, |c| c + 1));
         Ok(reader)
+    }
+
+    /// Whether the current row has the header's fields, up to blank ones at the end of
+    /// either (`time,signal,value,` above rows without the trailing comma, or the reverse).
+    fn row_fits(&self) -> bool {
+        let n = self.rec.len();
+        if n <= self.fields {
+            n >= self.min_fields
+        } else {
+            (self.fields..n).all(|i| self.rec.field(i).trim_ascii().is_empty())
+        }
     }
 
     /// Layout found from the header.
@@ -237,9 +254,18 @@ impl<R: Read> RowReader<R> {
             }
             report.rows_read += 1;
             let line = self.line();
-            if self.rec.len() != self.fields {
+            if !self.row_fits() {
                 let (n, want) = (self.rec.len(), self.fields);
-                report.bad(line, false, || format!("expected {want} fields, found {n}"));
+                if self.rec.overlong() {
+                    report.bad(line, false, || {
+                        format!(
+                            "a line longer than {} KiB, skipped",
+                            crate::limits::MAX_LINE_BYTES >> 10
+                        )
+                    });
+                } else {
+                    report.bad(line, false, || format!("expected {want} fields, found {n}"));
+                }
                 continue;
             }
             let Some(t) = self.time(report, line) else {
@@ -295,9 +321,18 @@ impl<R: Read> RowReader<R> {
             }
             report.rows_read += 1;
             let line = self.line();
-            if self.rec.len() != self.fields {
+            if !self.row_fits() {
                 let (n, want) = (self.rec.len(), self.fields);
-                report.bad(line, false, || format!("expected {want} fields, found {n}"));
+                if self.rec.overlong() {
+                    report.bad(line, false, || {
+                        format!(
+                            "a line longer than {} KiB, skipped",
+                            crate::limits::MAX_LINE_BYTES >> 10
+                        )
+                    });
+                } else {
+                    report.bad(line, false, || format!("expected {want} fields, found {n}"));
+                }
                 continue;
             }
             let Some(t) = self.time(report, line) else {
@@ -381,6 +416,28 @@ mod tests {
         assert_eq!(rows.len(), 7 + 4);
         assert_eq!(report.missing_values, 3);
         assert_eq!(report.rows_used, 2);
+    }
+
+    #[test]
+    fn a_trailing_comma_on_the_header_or_the_rows_alone_loses_no_row() {
+        // The header ends in a blank name, the rows do not, and the reverse; a row short of
+        // a named column, or with a non-blank field past the header, is still bad.
+        let (rows, report) = readings("time,signal,value,\n1,speed,0.5\n2,speed,0.6,\n3,speed\n");
+        assert_eq!(
+            rows,
+            vec![(1.0, Signal::Speed, 0.5, 2), (2.0, Signal::Speed, 0.6, 3)]
+        );
+        assert_eq!(report.bad_rows, 1);
+        let (rows, report) = readings(
+            "time,speed,direction,voltage,load,door,floor\n\
+             1,0.5,1,300,40,0,3,\n2,0.5,1,300,40,0,3, \n3,0.5,1,300,40,0,3,9\n",
+        );
+        assert_eq!(
+            rows.len(),
+            2 * 6,
+            "the first two rows, every value but none"
+        );
+        assert_eq!(report.bad_rows, 1, "a ninth field that holds a value");
     }
 
     #[test]

@@ -25,7 +25,7 @@
 
 use std::io::{self, Read};
 
-use crate::limits::LineBounded;
+use crate::limits::{MAX_LINE_BYTES, MAX_SKIPPED_BYTES};
 
 /// Bytes read from the file at a time.
 const CHUNK_BYTES: usize = 1 << 16;
@@ -33,7 +33,7 @@ const CHUNK_BYTES: usize = 1 << 16;
 /// The records of a CSV file, one at a time into reused buffers: a good line allocates
 /// nothing.
 pub struct Records<R> {
-    src: LineBounded<R>,
+    src: R,
     /// Bytes read and not yet consumed: `buf[pos..filled]`.
     buf: Vec<u8>,
     pos: usize,
@@ -53,13 +53,15 @@ pub struct Records<R> {
     start0: usize,
     n_fields: usize,
     core: csv_core::Reader,
+    /// The current record is an over-long line, skipped.
+    overlong: bool,
 }
 
 impl<R: Read> Records<R> {
-    /// Records of `input`; a line longer than [`MAX_LINE_BYTES`](crate::limits::MAX_LINE_BYTES) fails the read.
+    /// Records of `input`.
     pub fn new(input: R) -> Self {
         Records {
-            src: LineBounded::new(input),
+            src: input,
             buf: vec![0; CHUNK_BYTES],
             pos: 0,
             filled: 0,
@@ -74,12 +76,19 @@ impl<R: Read> Records<R> {
             core: csv_core::ReaderBuilder::new()
                 .terminator(csv_core::Terminator::Any(b'\n'))
                 .build(),
+            overlong: false,
         }
     }
 
     /// The input, to read it again from the start.
     pub fn into_inner(self) -> R {
-        self.src.into_inner()
+        self.src
+    }
+
+    /// True when the current record is a line longer than [`MAX_LINE_BYTES`], skipped to its
+    /// end unread (no fields): a bad row, not the end of the file.
+    pub fn overlong(&self) -> bool {
+        self.overlong
     }
 
     /// Fields of the current record.
@@ -128,14 +137,17 @@ impl<R: Read> Records<R> {
     /// Reads the next record; `false` at the end of the file.
     ///
     /// # Errors
-    /// A read error, or a line longer than [`MAX_LINE_BYTES`](crate::limits::MAX_LINE_BYTES).
+    /// A read error, or [`MAX_SKIPPED_BYTES`] without a line break.
     pub fn read(&mut self) -> io::Result<bool> {
         self.n_fields = 0;
+        self.overlong = false;
         loop {
             let start = self.pos;
             let avail = &self.buf[start..self.filled];
             let (len, terminated) = match memchr::memchr(b'\n', avail) {
-                Some(k) => (k, true),
+                Some(k) if k as u64 <= MAX_LINE_BYTES => (k, true),
+                Some(_) => return self.skip_overlong(),
+                None if avail.len() as u64 > MAX_LINE_BYTES => return self.skip_overlong(),
                 // A line cut by the end of the buffer: read on and look again.
                 None if !self.eof => {
                     self.fill()?;
@@ -161,6 +173,40 @@ impl<R: Read> Records<R> {
             self.quoted = false;
             return Ok(true);
         }
+    }
+
+    /// Skips the over-long line at `pos` through its break (or the end of the file), a record
+    /// of no fields flagged [`Self::overlong`]. Memory stays bounded: what is skipped is
+    /// dropped as it is read.
+    fn skip_overlong(&mut self) -> io::Result<bool> {
+        let mut skipped: u64 = 0;
+        loop {
+            let avail = &self.buf[self.pos..self.filled];
+            if let Some(k) = memchr::memchr(b'\n', avail) {
+                self.pos += k + 1;
+                self.breaks += 1;
+                self.line = self.breaks;
+                break;
+            }
+            skipped += avail.len() as u64;
+            self.pos = self.filled;
+            if skipped > MAX_SKIPPED_BYTES {
+                return Err(io::Error::new(
+                    io::ErrorKind::InvalidData,
+                    format!(
+                        "no line break in {} MiB: not a text log",
+                        MAX_SKIPPED_BYTES >> 20
+                    ),
+                ));
+            }
+            if self.eof {
+                self.line = self.breaks + 1;
+                break;
+            }
+            self.fill()?;
+        }
+        self.overlong = true;
+        Ok(true)
     }
 
     /// Reads the line of `len` bytes at `start` (its break left out) through csv_core;
@@ -380,6 +426,35 @@ mod tests {
             got.iter().map(|r| r.1).collect::<Vec<_>>(),
             vec![1, 3, 5, 6, 7, 8]
         );
+    }
+
+    #[test]
+    fn an_overlong_line_is_skipped_as_one_record_and_the_file_read_on() {
+        // Ten good lines, 1.1 MiB of NUL bytes as a crash leaves them, a good line, and an
+        // over-long last line without a break.
+        let mut text = b"1,speed,0\n".repeat(10);
+        text.extend(vec![0u8; 1_100_000]);
+        text.extend(b"\n2,speed,1\n");
+        text.extend(vec![b'x'; 1_200_000]);
+        let trickle = Trickle {
+            rest: &text,
+            rng: Rng::new(3),
+        };
+        let mut r = Records::new(trickle);
+        let mut got = Vec::new();
+        while r.read().unwrap() {
+            got.push((r.len(), r.overlong(), r.line()));
+        }
+        let mut want = vec![(3, false, 0); 10];
+        for (i, w) in want.iter_mut().enumerate() {
+            w.2 = i as u64 + 1;
+        }
+        want.extend([(0, true, 11), (3, false, 12), (0, true, 13)]);
+        assert_eq!(got, want);
+        // Without a line break for long, the input is no text log.
+        let mut r = Records::new(std::io::repeat(0).take(MAX_SKIPPED_BYTES + (4 << 20)));
+        let err = r.read().unwrap_err();
+        assert!(err.to_string().contains("no line break"), "{err}");
     }
 
     #[test]

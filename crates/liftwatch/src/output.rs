@@ -345,6 +345,41 @@ impl AtomicDir {
         &self.target
     }
 
+    /// Refuses, with one line naming the flag, when a file written so far would replace one
+    /// of `inputs` in the target (an input kept in the output directory under a name the
+    /// command writes, such as `risk.svg`).
+    ///
+    /// # Errors
+    /// [`Error::InvalidConfig`] naming the input's flag and path.
+    pub fn check_spares(&self, inputs: &[FileArg]) -> Result<()> {
+        let Some(temp) = &self.temp else {
+            return Ok(());
+        };
+        let inputs: Vec<(&FileArg, PathBuf)> = inputs
+            .iter()
+            .filter(|a| !a.output)
+            .filter_map(|a| std::fs::canonicalize(a.path).ok().map(|p| (a, p)))
+            .collect();
+        for e in std::fs::read_dir(temp).map_err(|e| Error::io(temp, e))? {
+            let e = e.map_err(|e| Error::io(temp, e))?;
+            let Ok(written) = std::fs::canonicalize(self.target.join(e.file_name())) else {
+                continue;
+            };
+            if let Some((a, _)) = inputs.iter().find(|(_, p)| *p == written) {
+                return Err(Error::InvalidConfig {
+                    field: "--out",
+                    why: format!(
+                        "{} would be replaced by the output {}: {} lies in the output directory under a name it writes; choose another --out",
+                        a.flag,
+                        written.display(),
+                        a.path.display()
+                    ),
+                });
+            }
+        }
+        Ok(())
+    }
+
     /// Syncs every file and moves them into the target.
     ///
     /// # Errors
@@ -567,6 +602,36 @@ fn sync_dir(target: &Path) {
 mod tests {
     use super::*;
     use crate::input::tests::scratch;
+
+    #[test]
+    fn a_directory_of_outputs_spares_an_input_kept_in_it() {
+        let dir = scratch("output-spares");
+        let out = dir.join("report");
+        std::fs::create_dir(&out).unwrap();
+        let input = out.join("risk.svg");
+        std::fs::write(&input, "time,signal,value\n").unwrap();
+        let elsewhere = dir.join("model.json");
+        std::fs::write(&elsewhere, "{}").unwrap();
+        let d = AtomicDir::create(&out).unwrap();
+        std::fs::write(d.path().join("risk.svg"), "<svg/>").unwrap();
+        std::fs::write(d.path().join("index.html"), "<html/>").unwrap();
+        let err = d
+            .check_spares(&[
+                FileArg::input("--model", &elsewhere),
+                FileArg::input("--input", &input),
+            ])
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("--input") && err.contains("risk.svg"), "{err}");
+        assert!(d
+            .check_spares(&[FileArg::input("--model", &elsewhere)])
+            .is_ok());
+        drop(d);
+        assert_eq!(
+            std::fs::read_to_string(&input).unwrap(),
+            "time,signal,value\n"
+        );
+    }
 
     fn entries(dir: &Path) -> Vec<String> {
         let mut v: Vec<String> = std::fs::read_dir(dir)

@@ -47,12 +47,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         "--out cannot be `-`: a report is a directory of files"
     );
     let ui = Ui::new(args.ui, &[])?;
-    liftwatch::output::check_distinct(&[
+    let files = [
         FileArg::input("--model", &args.model),
         FileArg::input("--input", &args.input),
         FileArg::output("--out", &args.out),
-    ])
-    .map_err(anyhow::Error::msg)?;
+    ];
+    liftwatch::output::check_distinct(&files).map_err(anyhow::Error::msg)?;
     let model = file::load(&args.model).context("cannot use the model")?;
     let (step, note) = model_step(&model, args.step)?;
     if let Some(n) = note {
@@ -90,6 +90,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         &ReportInputs::new(&analysis, &model, &series, &source),
     )
     .with_context(cannot_write)?;
+    dir.check_spares(&files)?;
     dir.commit().with_context(cannot_write)?;
     let index = args.out.join("index.html").display().to_string();
     ui.say(&index);

@@ -595,6 +595,79 @@ fn input_the_state_covers_is_refused_or_skipped() {
 }
 
 #[test]
+fn a_raw_log_resumed_with_an_overlap_gives_the_rows_of_one_run() {
+    let fx = fixture();
+    let dir = Dir::new("raw-resume");
+    let model = s(&fx.model);
+    let raw_path = fx
+        .aligned
+        .parent()
+        .expect("fixture dir")
+        .join("sim/raw.csv");
+    let raw = std::fs::read_to_string(&raw_path).expect("raw log");
+    let (header, body) = raw.split_once('\n').expect("header");
+    // Split at 240 s, mid-trip in this log (seed 3): rows by their time, as a logger that
+    // starts a new file at a given instant writes them.
+    let split = 240.0;
+    let time = |line: &str| line.split(',').next().and_then(|t| t.parse::<f64>().ok());
+    let (before, after): (Vec<&str>, Vec<&str>) = body
+        .lines()
+        .partition(|l| time(l).is_some_and(|t| t < split));
+    let part1 = dir.file(
+        "part1.csv",
+        format!("{header}\n{}\n", before.join("\n")).as_bytes(),
+    );
+    let part2 = dir.file(
+        "part2.csv",
+        format!("{header}\n{}\n", after.join("\n")).as_bytes(),
+    );
+    // The last 200 rows of the first part again in front of the second.
+    let tail = &before[before.len().saturating_sub(200)..];
+    let overlap = dir.file(
+        "overlap.csv",
+        format!("{header}\n{}\n{}\n", tail.join("\n"), after.join("\n")).as_bytes(),
+    );
+    let monitor = |input: &Path, out: &str, state: &str, extra: &[&str]| {
+        let mut args: Vec<String> = ["monitor", "--model", model, "--input", s(input)]
+            .iter()
+            .map(|a| a.to_string())
+            .collect();
+        args.extend(["--out".into(), s(&dir.path(out)).into()]);
+        if !state.is_empty() {
+            args.extend(["--state".into(), s(&dir.path(state)).into()]);
+        }
+        args.extend(extra.iter().map(|a| a.to_string()));
+        ok(&args)
+    };
+    monitor(&raw_path, "whole.csv", "", &[]);
+    monitor(&part1, "p1.csv", "a.json", &[]);
+    std::fs::copy(dir.path("a.json"), dir.path("b.json")).expect("copy");
+    let gap = monitor(&part2, "p2.csv", "a.json", &[]);
+    assert!(
+        gap.stderr.contains("the samples between are missing"),
+        "a resume without overlap says what it loses: {}",
+        gap.stderr
+    );
+    monitor(&overlap, "p2o.csv", "b.json", &["--skip-covered"]);
+    let rows = |name: &str| -> Vec<String> {
+        let text = std::fs::read_to_string(dir.path(name)).expect("rows");
+        text.lines().skip(1).map(str::to_string).collect()
+    };
+    let mut whole = rows("whole.csv");
+    whole.pop(); // a --state run holds its last sample back for the central difference
+    let joined = [rows("p1.csv"), rows("p2o.csv")].concat();
+    assert!(
+        joined == whole,
+        "the overlapped resume differs from one run"
+    );
+    let gapped = [rows("p1.csv"), rows("p2.csv")].concat();
+    assert!(
+        gapped != whole,
+        "without the overlap a sample is lost (the test's premise)"
+    );
+}
+
+#[test]
 fn absurd_models_are_refused_with_one_line_naming_the_field() {
     let fx = fixture();
     let dir = Dir::new("absurd");

@@ -152,6 +152,11 @@ impl FailOn {
     }
 }
 
+/// A resumed run's first sample further than this many steps after the last one the state
+/// covers leaves samples out between them (the next step is the one expected; a sample held
+/// back for the central difference is not a gap).
+const RESUME_GAP_STEPS: f64 = 1.5;
+
 /// The alignment sink: feeds the monitor and writes its rows and events.
 struct Sink<'a> {
     model: &'a FittedModel,
@@ -290,14 +295,23 @@ impl SampleSink for Sink<'_> {
             if !self.skip_covered {
                 anyhow::bail!(
                     "the input has a sample at t = {} s, at or before t = {} s, the last the state covers: it was watched already (pass --skip-covered to skip what the state covers)",
-                    sample.time,
-                    self.covered_until
+                    liftwatch::error::number(sample.time),
+                    liftwatch::error::number(self.covered_until)
                 );
             }
             self.skipped += 1;
             return Ok(());
         }
         self.samples += 1;
+        let step = self.model.step_s.unwrap_or(1.0);
+        if self.samples == 1 && sample.time - self.covered_until > RESUME_GAP_STEPS * step {
+            // The samples between the state's last and this one are lost: each side of the
+            // boundary was aligned without the other's readings.
+            eprintln!(
+                "warning: the input resumes {} s after the last sample the state covers, so the samples between are missing: for a raw log, feed the previous log's last minute again with --skip-covered (a single run and the two then give the same rows)",
+                liftwatch::error::number(sample.time - self.covered_until)
+            );
+        }
         if self.samples % PROGRESS_EVERY == 0 {
             self.ui.progress(format_args!(
                 "monitor: {} samples, level {}",
@@ -332,9 +346,9 @@ fn resume_state(
     Monitor::resume(model, st.clone()).with_context(|| format!("{}", p.display()))?;
     if st.method != method {
         anyhow::bail!(
-            "{}: state was written by method `{:?}`, not `{}`",
+            "{}: state was written by method `{}`, not `{}`",
             p.display(),
-            st.method,
+            st.method.name(),
             args.method.name()
         );
     }

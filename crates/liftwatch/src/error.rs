@@ -145,7 +145,7 @@ pub fn check_range(field: &str, v: f64, lo: f64, hi: f64) -> std::result::Result
 const MAX_PLAIN_NUMBER_CHARS: usize = 20;
 
 /// `v` as `{}` writes it when that is short, else as `{:e}`.
-fn number(v: f64) -> String {
+pub fn number(v: f64) -> String {
     let plain = v.to_string();
     if plain.len() <= MAX_PLAIN_NUMBER_CHARS {
         plain

@@ -285,8 +285,10 @@ impl Engine {
                 path: path.to_path_buf(),
                 what: "telemetry log",
                 why: format!(
-                    "{readings:.0} readings span {:.0} s (from {lo} to {hi}): too few to fill that span                      (a week plus {MAX_ROWS_PER_READING:.0} steps per reading); split the log at the gap",
-                    hi - lo
+                    "{readings:.0} readings span {:.0} s (from {} to {}): too few to fill that span (a week plus {MAX_ROWS_PER_READING:.0} steps per reading); split the log at the gap, or drop a row whose time is far off",
+                    hi - lo,
+                    crate::error::number(lo),
+                    crate::error::number(hi)
                 ),
             });
         }

@@ -119,7 +119,7 @@ fn check_range(field: &'static str, v: f64, lo: f64, hi: f64) -> Result<()> {
     } else {
         Err(Error::InvalidConfig {
             field,
-            why: format!("{v} s is outside {lo} to {hi} s"),
+            why: format!("{} s is outside {lo} to {hi} s", crate::error::number(v)),
         })
     }
 }

@@ -81,6 +81,16 @@ pub enum Method {
     Threshold,
 }
 
+impl Method {
+    /// The method's name on the command line and in files: `pinn` or `threshold`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Method::Pinn => "pinn",
+            Method::Threshold => "threshold",
+        }
+    }
+}
+
 impl std::str::FromStr for Method {
     type Err = Error;
 

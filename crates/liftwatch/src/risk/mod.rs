@@ -305,6 +305,25 @@ impl RiskConfig {
         for v in self.prior_info {
             range("risk.prior_info", v, -1e30, 1e30)?;
         }
+        // An information matrix (XᵀX, packed 00 01 02 11 12 22): no negative diagonal and no
+        // correlation beyond one, or the re-identification starts from a prior that is none.
+        let [a00, a01, a02, a11, a12, a22] = self.prior_info;
+        for d in [a00, a11, a22] {
+            range("risk.prior_info (diagonal)", d, 0.0, 1e30)?;
+        }
+        for (off, p, q) in [(a01, a00, a11), (a02, a00, a22), (a12, a11, a22)] {
+            if off * off > p * q * (1.0 + 1e-9) {
+                return Err(Error::InvalidConfig {
+                    field: "risk.prior_info",
+                    why: format!(
+                        "off-diagonal {} exceeds what its diagonal allows ({} and {}): not an information matrix",
+                        crate::error::number(off),
+                        crate::error::number(p),
+                        crate::error::number(q)
+                    ),
+                });
+            }
+        }
         range("risk.prior_s2", self.prior_s2, 1e-300, 1e30)?;
         // Copper gains 0.39 %/K; β = 10 would be a winding 2,500 K over ambient at H = 1.
         let w = &self.winding;

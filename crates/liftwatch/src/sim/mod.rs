@@ -192,7 +192,7 @@ impl SimConfig {
                 "start_s",
                 format!(
                     "{} s must lie within ±{last:.0} s, so that the run's times stay within ±{:.0e} s",
-                    self.start_s,
+                    crate::error::number(self.start_s),
                     crate::ingest::time::MAX_ABS_TIME_S
                 ),
             );

@@ -206,9 +206,10 @@ pub struct IngestReport {
     pub missing_values: u64,
     /// Rows of signal names this build does not know, by name.
     pub unknown_signals: BTreeMap<String, u64>,
-    /// Rows repeating the time of an earlier row of the same signal (averaged or last kept).
+    /// Readings (rows of a raw log, values of an aligned one) repeating the time of an
+    /// earlier reading of the same signal (averaged or last kept).
     pub duplicate_timestamps: u64,
-    /// Rows earlier than a row of the same signal before them in the file.
+    /// Readings earlier than a reading of the same signal before them in the file.
     pub rows_reordered: u64,
     /// Line of the first row older than the reorder window, which forced a full sort.
     pub late_line: Option<u64>,
@@ -317,10 +318,14 @@ impl IngestReport {
             let _ = write!(s, ", {} missing values", self.missing_values);
         }
         if self.duplicate_timestamps > 0 {
-            let _ = write!(s, ", {} duplicate timestamps", self.duplicate_timestamps);
+            let _ = write!(
+                s,
+                ", {} readings at a repeated time",
+                self.duplicate_timestamps
+            );
         }
         if self.rows_reordered > 0 {
-            let _ = write!(s, ", {} rows reordered", self.rows_reordered);
+            let _ = write!(s, ", {} readings out of time order", self.rows_reordered);
         }
         if let Some(line) = self.late_line {
             let _ = write!(

@@ -106,7 +106,66 @@ pub fn router(shared: Arc<Shared>) -> Router {
         )
         .fallback(|| async { ApiError::not_found("no such route; see /api/v1/openapi.json") })
         .layer(DefaultBodyLimit::max(limit))
+        .layer(axum::middleware::from_fn_with_state(
+            shared.clone(),
+            writes_first,
+        ))
         .with_state(shared)
+}
+
+/// How long a write's body may take to arrive (s): 8 MiB at a slow 150 kB/s. A client that
+/// stops sending holds a connection and the body read so far; after this it gets 408.
+const BODY_TIMEOUT_S: u64 = 60;
+
+/// Every write (any method but GET and HEAD) is checked for its token before its body is
+/// read, and its body must arrive within [`BODY_TIMEOUT_S`]: unauthenticated clients sending
+/// 8 MiB bodies slowly had pinned that memory per connection for as long as they liked.
+async fn writes_first(
+    State(s): State<Arc<Shared>>,
+    req: axum::extract::Request,
+    next: axum::middleware::Next,
+) -> Response {
+    let method = req.method();
+    if method == axum::http::Method::GET || method == axum::http::Method::HEAD {
+        return next.run(req).await;
+    }
+    if let Err(e) = check_write(&s, req.headers()) {
+        return refused(&s, e).into_response();
+    }
+    let (parts, body) = req.into_parts();
+    let read = axum::body::to_bytes(body, s.cfg.max_body_bytes);
+    let bytes =
+        match tokio::time::timeout(std::time::Duration::from_secs(BODY_TIMEOUT_S), read).await {
+            Ok(Ok(b)) => b,
+            Ok(Err(_)) => {
+                return refused(
+                    &s,
+                    ApiError(
+                        StatusCode::PAYLOAD_TOO_LARGE,
+                        format!(
+                            "the body is larger than {} bytes, or was cut off",
+                            s.cfg.max_body_bytes
+                        ),
+                    ),
+                )
+                .into_response()
+            }
+            Err(_) => {
+                return refused(
+                    &s,
+                    ApiError(
+                        StatusCode::REQUEST_TIMEOUT,
+                        format!("the body did not arrive within {BODY_TIMEOUT_S} s"),
+                    ),
+                )
+                .into_response()
+            }
+        };
+    next.run(axum::extract::Request::from_parts(
+        parts,
+        axum::body::Body::from(bytes),
+    ))
+    .await
 }
 
 /// Runs blocking database work off the async threads.

@@ -427,6 +427,57 @@ pub struct FitRequest {
 /// Most iterations a fit request may ask for: the largest Adam schedule the CLI documents.
 pub const MAX_FIT_EPOCHS: usize = 20_000;
 
+/// Longest span of stored telemetry one fit aligns (s): 31 days, about 2.7 M samples at 1 s
+/// and half a GB of fit (180 bytes a sample). The span is the times', not the data's: one
+/// reading a hundred days off had a fit of an hour's data take 1.6 GB.
+pub const MAX_FIT_SPAN_S: f64 = 31.0 * 86_400.0;
+
+/// Longest note a fit request may carry (characters).
+const MAX_NOTE_CHARS: usize = 1000;
+
+/// Fits run one at a time: each holds its series and features in memory, and the service's
+/// memory should not grow with the number of requests.
+static ONE_FIT: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
+impl FitRequest {
+    /// 400 for a request the fit would refuse later: epochs beyond [`MAX_FIT_EPOCHS`], a
+    /// range that ends before it starts or is not a number, a note beyond a thousand
+    /// characters.
+    fn check(&self) -> Result<(), ApiError> {
+        if let Some(n) = self.epochs {
+            if n > MAX_FIT_EPOCHS {
+                return Err(ApiError::bad(format!(
+                    "epochs {n} is more than {MAX_FIT_EPOCHS}"
+                )));
+            }
+        }
+        for (name, t) in [("from", self.from), ("to", self.to)] {
+            if t.is_some_and(|t| !t.is_finite()) {
+                return Err(ApiError::bad(format!("`{name}` is not a finite time")));
+            }
+        }
+        if let (Some(a), Some(b)) = (self.from, self.to) {
+            if a > b {
+                return Err(ApiError::bad(format!(
+                    "`from` {} is after `to` {}",
+                    liftwatch::error::number(a),
+                    liftwatch::error::number(b)
+                )));
+            }
+        }
+        if self
+            .note
+            .as_ref()
+            .is_some_and(|n| n.chars().count() > MAX_NOTE_CHARS)
+        {
+            return Err(ApiError::bad(format!(
+                "the note is longer than {MAX_NOTE_CHARS} characters"
+            )));
+        }
+        Ok(())
+    }
+}
+
 /// Registers a `fitting` version and fits it in a background thread from the stored raw
 /// batches of the range; the version becomes `proposed` (or `failed`, with the reason in its
 /// note). Returns the version.
@@ -434,6 +485,7 @@ pub const MAX_FIT_EPOCHS: usize = 20_000;
 /// # Errors
 /// 404 for an unknown elevator; 400 without the rated values to describe it.
 pub fn start_fit(shared: Arc<Shared>, id: &str, req: FitRequest) -> Result<i64, ApiError> {
+    req.check()?;
     let db = |e: rusqlite::Error| ApiError::internal(format!("database: {e}"));
     let conn = shared
         .writer
@@ -486,7 +538,10 @@ pub fn start_fit(shared: Arc<Shared>, id: &str, req: FitRequest) -> Result<i64, 
     std::thread::Builder::new()
         .name("liftwatch-fit".into())
         .spawn(move || {
-            let result = fit_from_history(&shared, &id, &req, &elevator);
+            let result = {
+                let _one = ONE_FIT.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+                fit_from_history(&shared, &id, &req, &elevator)
+            };
             let conn = shared.writer.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
             let done = match result {
                 Ok((text, fp, summary)) => conn.execute(
@@ -528,6 +583,7 @@ fn fit_from_history(
         .map_err(|e| e.to_string())?;
     let mut aligner = Aligner::new(&cfg).map_err(|e| e.to_string())?;
     let mut samples: Vec<Sample> = Vec::new();
+    let (mut first, mut last) = (f64::INFINITY, f64::NEG_INFINITY);
     shared.read(|c| {
         let mut st = c
             .prepare("SELECT data FROM batches WHERE elevator = ?1 AND t_max >= ?2 AND t_min <= ?3 ORDER BY seq")
@@ -537,6 +593,15 @@ fn fit_from_history(
             let data: Vec<u8> = r.get(0).map_err(|e| e.to_string())?;
             for (sig, t, v) in store::decode(&data).0 {
                 if (lo..=hi).contains(&t) {
+                    (first, last) = (first.min(t), last.max(t));
+                    if last - first > MAX_FIT_SPAN_S {
+                        return Err(format!(
+                            "the stored telemetry of the range spans more than {} days (from {} s to at least {} s): fit a shorter range with `from` and `to`",
+                            MAX_FIT_SPAN_S / 86_400.0,
+                            liftwatch::error::number(first),
+                            liftwatch::error::number(last)
+                        ));
+                    }
                     aligner.push(sig, t, v, &mut samples).map_err(|e| e.to_string())?;
                 }
             }

@@ -105,6 +105,12 @@ pub fn router(shared: Arc<Shared>) -> Router {
             get(visits).post(add_visit),
         )
         .fallback(|| async { ApiError::not_found("no such route; see /api/v1/openapi.json") })
+        .method_not_allowed_fallback(|| async {
+            ApiError(
+                StatusCode::METHOD_NOT_ALLOWED,
+                "this route does not take that method; see /api/v1/openapi.json".into(),
+            )
+        })
         .layer(DefaultBodyLimit::max(limit))
         .layer(axum::middleware::from_fn_with_state(
             shared.clone(),

@@ -59,11 +59,22 @@ pub struct Parsed {
 /// 413 for more rows than `max_rows`; 400 for a body with no good row, or of the aligned
 /// layout.
 pub fn parse_telemetry(body: &[u8], ndjson: bool, max_rows: usize) -> Result<Parsed, ApiError> {
-    let lines = body.iter().filter(|&&b| b == b'\n').count() + 1;
-    if lines > max_rows + 1 {
+    // Rows: the lines that hold anything, the header line left out (the final line break
+    // and blank lines are no rows).
+    let mut segments = body.split(|&b| b == b'\n');
+    let first = segments
+        .next()
+        .map(|l| l.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(l).trim_ascii())
+        .unwrap_or(b"");
+    let header = first.len() >= 4 && first[..4].eq_ignore_ascii_case(b"time");
+    let rows = usize::from(!header && !first.is_empty())
+        + segments.filter(|l| !l.trim_ascii().is_empty()).count();
+    if rows > max_rows {
         return Err(ApiError(
             StatusCode::PAYLOAD_TOO_LARGE,
-            format!("{lines} lines, more than the {max_rows} rows a request may carry (max_rows_per_request)"),
+            format!(
+                "{rows} rows, more than the {max_rows} a request may carry (max_rows_per_request)"
+            ),
         ));
     }
     let mut pre = Parsed::default();
@@ -999,6 +1010,18 @@ pub fn trip_object(line: &str, info: &ElevatorInfo) -> Value {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_row_bound_counts_rows_not_the_header_or_line_breaks() {
+        let rows = "1,speed,0.5\n2,door,1\n\n3,speed,0\n";
+        assert!(parse_telemetry(rows.as_bytes(), false, 3).is_ok());
+        let with_header = format!("time,signal,value\n{rows}");
+        assert!(parse_telemetry(with_header.as_bytes(), false, 3).is_ok());
+        let more = format!("{with_header}4,speed,0\n");
+        let err = parse_telemetry(more.as_bytes(), false, 3).unwrap_err();
+        assert_eq!(err.0, StatusCode::PAYLOAD_TOO_LARGE);
+        assert!(err.1.starts_with("4 rows"), "{}", err.1);
+    }
 
     #[test]
     fn a_body_without_header_and_json_lines_give_the_same_readings() {

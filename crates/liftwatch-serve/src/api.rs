@@ -274,7 +274,13 @@ fn summary(
 ) -> String {
     let snap = snap.cloned().unwrap_or_default();
     let c = &snap.counters;
-    let last = c.last_time;
+    // Before the worker's first checkpoint of this elevator nothing was watched: no time, no
+    // level (the defaults' 0 s and "" were shown as if they were).
+    let last = if snap.counts.samples > 0 {
+        c.last_time
+    } else {
+        f64::NAN
+    };
     let days = (c.last_time - c.first_time) / 86_400.0;
     let per_day = |n: u64| {
         if days > 0.0 {
@@ -304,7 +310,7 @@ fn summary(
         "trips_per_day": per_day(snap.trips),
         "door_cycles_per_day": per_day(c.door_cycles),
         "open_events": open_events,
-        "level": snap.level,
+        "level": (!snap.level.is_empty()).then_some(&snap.level),
         "applied_seq": snap.applied_seq,
     });
     if let Some((key, value)) = extra {

@@ -300,19 +300,15 @@ pub fn nats_servers(urls: &str) -> Result<Vec<String>, String> {
 /// # Errors
 /// One line naming the field.
 pub fn check_info(e: &ElevatorInfo) -> Result<(), String> {
-    let positive = |name: &str, v: Option<f64>| match v {
-        Some(x) if !(x.is_finite() && x > 0.0 && x < 1e6) => {
-            Err(format!("{name} {x} is not a positive number below 1e6"))
-        }
-        _ => Ok(()),
-    };
-    positive("rated_load_kg", e.rated_load_kg)?;
-    positive("rated_speed_mps", e.rated_speed_mps)?;
-    if let Some(f) = e.floors {
-        if !(2..=500).contains(&f) {
-            return Err(format!("floors {f} is outside 2 to 500"));
-        }
-    }
+    // The rated values in the library's own ranges (`Elevator::validate`, what `fit` and
+    // `elevator.toml` demand), the values not given standing in as valid: PUT took a
+    // rated load of 999,999 kg that a fit then refused.
+    liftwatch::Elevator::new(
+        e.rated_load_kg.unwrap_or(1000.0),
+        e.rated_speed_mps.unwrap_or(1.0),
+        e.floors.unwrap_or(10),
+    )
+    .validate()?;
     for (name, v) in [("name", &e.name), ("group", &e.group)] {
         if v.as_ref()
             .is_some_and(|s| s.chars().count() > MAX_LABEL_CHARS)

@@ -329,6 +329,35 @@ pub fn upload(
             )));
         }
     }
+    // A model describes its elevator; one fitted for another car is refused where the stored
+    // description says otherwise (a 630 kg model had been accepted for a 1000 kg car).
+    let info: Option<String> = conn
+        .query_row("SELECT info FROM elevators WHERE id = ?1", [id], |r| {
+            r.get(0)
+        })
+        .optional()
+        .map_err(|e| ApiError::internal(format!("database: {e}")))?;
+    let info: ElevatorInfo = info
+        .and_then(|i| serde_json::from_str(&i).ok())
+        .unwrap_or_default();
+    let e = &model.hybrid.elevator;
+    let differs = |stored: Option<f64>, model: f64| {
+        stored.is_some_and(|v| (v - model).abs() > 1e-6 * v.abs().max(1.0))
+    };
+    if differs(info.rated_load_kg, e.rated_load_kg)
+        || differs(info.rated_speed_mps, e.rated_speed_mps)
+        || info.floors.is_some_and(|f| f != e.floors)
+    {
+        return Err(ApiError::bad(format!(
+            "the model is of a {} kg, {} m/s, {}-floor car; `{id}` is {} kg, {} m/s, {} floors",
+            e.rated_load_kg,
+            e.rated_speed_mps,
+            e.floors,
+            info.rated_load_kg.map_or("?".into(), |v| v.to_string()),
+            info.rated_speed_mps.map_or("?".into(), |v| v.to_string()),
+            info.floors.map_or("?".into(), |v| v.to_string()),
+        )));
+    }
     let fingerprint = liftwatch::monitor::model_fingerprint(&model);
     store_model(
         conn,

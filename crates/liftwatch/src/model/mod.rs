@@ -127,7 +127,7 @@ const INTEGRAL_FLOATS: f64 = 4_503_599_627_370_496.0;
 /// exact), the sign of `y` kept (−0.3 rounds to −0). A float of 2⁵² or more in magnitude, ±∞
 /// and NaN are their own rounding.
 pub fn round_half_away(y: f64) -> f64 {
-    if !(y.abs() < INTEGRAL_FLOATS) {
+    if y.is_nan() || y.abs() >= INTEGRAL_FLOATS {
         return y;
     }
     let t = (y as i64) as f64;

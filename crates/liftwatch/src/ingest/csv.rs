@@ -157,6 +157,26 @@ impl<R: Read> RowReader<R> {
         Ok(reader)
     }
 
+    /// [`Self::row_fits`], the row counted bad with its reason when it does not (an
+    /// over-long line skipped, or the wrong number of fields).
+    fn row_fits_or_counted(&self, report: &mut IngestReport, line: u64) -> bool {
+        if self.row_fits() {
+            return true;
+        }
+        let (n, want) = (self.rec.len(), self.fields);
+        if self.rec.overlong() {
+            report.bad(line, false, || {
+                format!(
+                    "a line longer than {} KiB, skipped",
+                    crate::limits::MAX_LINE_BYTES >> 10
+                )
+            });
+        } else {
+            report.bad(line, false, || format!("expected {want} fields, found {n}"));
+        }
+        false
+    }
+
     /// Whether the current row has the header's fields, up to blank ones at the end of
     /// either (`time,signal,value,` above rows without the trailing comma, or the reverse).
     fn row_fits(&self) -> bool {
@@ -254,18 +274,7 @@ impl<R: Read> RowReader<R> {
             }
             report.rows_read += 1;
             let line = self.line();
-            if !self.row_fits() {
-                let (n, want) = (self.rec.len(), self.fields);
-                if self.rec.overlong() {
-                    report.bad(line, false, || {
-                        format!(
-                            "a line longer than {} KiB, skipped",
-                            crate::limits::MAX_LINE_BYTES >> 10
-                        )
-                    });
-                } else {
-                    report.bad(line, false, || format!("expected {want} fields, found {n}"));
-                }
+            if !self.row_fits_or_counted(report, line) {
                 continue;
             }
             let Some(t) = self.time(report, line) else {
@@ -321,18 +330,7 @@ impl<R: Read> RowReader<R> {
             }
             report.rows_read += 1;
             let line = self.line();
-            if !self.row_fits() {
-                let (n, want) = (self.rec.len(), self.fields);
-                if self.rec.overlong() {
-                    report.bad(line, false, || {
-                        format!(
-                            "a line longer than {} KiB, skipped",
-                            crate::limits::MAX_LINE_BYTES >> 10
-                        )
-                    });
-                } else {
-                    report.bad(line, false, || format!("expected {want} fields, found {n}"));
-                }
+            if !self.row_fits_or_counted(report, line) {
                 continue;
             }
             let Some(t) = self.time(report, line) else {

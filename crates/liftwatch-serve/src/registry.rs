@@ -104,12 +104,32 @@ pub fn parse_telemetry(body: &[u8], ndjson: bool, max_rows: usize) -> Result<Par
     }
     let mut report = IngestReport::new(Layout::Raw);
     let mut readings = Vec::new();
-    rows.for_each_reading::<liftwatch::Error>(&mut report, |t, sig, v, _| {
+    let mut lines = Vec::new();
+    rows.for_each_reading::<liftwatch::Error>(&mut report, |t, sig, v, line| {
         readings.push((sig, t, v));
+        lines.push(line);
         Ok(ControlFlow::Continue(()))
     })
     .map_err(|e| ApiError::bad(e.to_string()))?;
     let shift = u64::from(!ndjson && text.len() != body.len());
+    let isolated = isolated_in_time(&readings);
+    if let Some(&first) = isolated.first() {
+        report.bad_rows += isolated.len() as u64;
+        let line = lines[first];
+        if report.first_bad_lines.first().is_none_or(|&l| line < l) {
+            report.first_bad_lines.insert(0, line);
+            report.first_bad_reason = Some(format!(
+                "line {line}: time {} s is more than {ISOLATION_S} s from the rest of the batch, with fewer than {ISOLATION_COMPANIONS} readings near it: a clock glitch, not telemetry",
+                liftwatch::error::number(readings[first].1)
+            ));
+        }
+        let mut keep = vec![true; readings.len()];
+        for &i in &isolated {
+            keep[i] = false;
+        }
+        let mut k = keep.iter();
+        readings.retain(|_| *k.next().unwrap_or(&true));
+    }
     let mut out = Parsed {
         readings,
         bad: report.bad_rows + pre.bad,
@@ -136,6 +156,41 @@ pub fn parse_telemetry(body: &[u8], ndjson: bool, max_rows: usize) -> Result<Par
     }
     out.first_bad_reason = out.first_bad_reason.map(|r| one_line(&r));
     Ok(out)
+}
+
+/// How far a reading's time may lie from the batch's median before it needs company (s): the
+/// alignment's reorder window, within which it sorts readings anyway.
+const ISOLATION_S: f64 = 600.0;
+
+/// Other readings within [`ISOLATION_S`] that make a far-off reading telemetry rather than a
+/// clock glitch: the first seconds after a logger's restart bring several at once.
+const ISOLATION_COMPANIONS: usize = 2;
+
+/// Readings a batch needs before a reading is judged against it.
+const ISOLATION_MIN_BATCH: usize = 20;
+
+/// The indices (in body order) of readings far from the batch's median time with fewer than
+/// [`ISOLATION_COMPANIONS`] others near them. One such reading (a gateway's clock glitch, a
+/// bit flip in a timestamp) was accepted, moved the alignment's clock to itself, and made
+/// every later row of the elevator late, acknowledged and dropped, until real time caught up.
+fn isolated_in_time(readings: &[(Signal, f64, f64)]) -> Vec<usize> {
+    if readings.len() < ISOLATION_MIN_BATCH {
+        return Vec::new();
+    }
+    let mut times: Vec<f64> = readings.iter().map(|r| r.1).collect();
+    times.sort_by(f64::total_cmp);
+    let median = times[times.len() / 2];
+    let near = |t: f64| {
+        let lo = times.partition_point(|&x| x < t - ISOLATION_S);
+        let hi = times.partition_point(|&x| x <= t + ISOLATION_S);
+        hi - lo - 1
+    };
+    readings
+        .iter()
+        .enumerate()
+        .filter(|(_, r)| (r.1 - median).abs() > ISOLATION_S && near(r.1) < ISOLATION_COMPANIONS)
+        .map(|(i, _)| i)
+        .collect()
 }
 
 /// `why` without a leading `line N: `.
@@ -1039,6 +1094,21 @@ pub fn trip_object(line: &str, info: &ElevatorInfo) -> Value {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_lone_reading_far_from_its_batch_is_bad_and_a_gap_with_company_is_not() {
+        let mut body: String = (0..30).map(|k| format!("{k},speed,0\n")).collect();
+        body.push_str("8640000,speed,0\n");
+        let p = parse_telemetry(body.as_bytes(), false, 1000).unwrap();
+        assert_eq!((p.readings.len(), p.bad), (30, 1));
+        assert_eq!(p.first_bad_line, Some(31));
+        assert!(p.first_bad_reason.unwrap().contains("clock glitch"));
+        // A logger back after a day: three readings at once are telemetry.
+        let mut body: String = (0..30).map(|k| format!("{k},speed,0\n")).collect();
+        body.push_str("86400,speed,0\n86400.5,door,1\n86401,speed,0\n");
+        let p = parse_telemetry(body.as_bytes(), false, 1000).unwrap();
+        assert_eq!((p.readings.len(), p.bad), (33, 0));
+    }
 
     #[test]
     fn the_row_bound_counts_rows_not_the_header_or_line_breaks() {

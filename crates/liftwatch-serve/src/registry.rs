@@ -116,7 +116,7 @@ pub fn parse_telemetry(body: &[u8], ndjson: bool, max_rows: usize) -> Result<Par
     if let Some(&first) = isolated.first() {
         report.bad_rows += isolated.len() as u64;
         let line = lines[first];
-        if report.first_bad_lines.first().is_none_or(|&l| line < l) {
+        if report.first_bad_lines.first().map_or(true, |&l| line < l) {
             report.first_bad_lines.insert(0, line);
             report.first_bad_reason = Some(format!(
                 "line {line}: time {} s is more than {ISOLATION_S} s from the rest of the batch, with fewer than {ISOLATION_COMPANIONS} readings near it: a clock glitch, not telemetry",
@@ -1003,6 +1003,12 @@ pub fn metrics_text(s: &Shared, depths: &HashMap<String, (i64, f64)>) -> String 
                 .get(id)
                 .map(|x| (x.counts.late + x.counts.late_current + x.counts.out_of_span) as f64)
         },
+    );
+    family(
+        "liftwatch_rows_glitch_total",
+        "Readings dropped as clock glitches: far ahead of every time taken, and not followed.",
+        "counter",
+        &|id| snaps.get(id).map(|x| x.counts.glitches as f64),
     );
     family(
         "liftwatch_samples_total",

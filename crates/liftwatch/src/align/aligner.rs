@@ -5,6 +5,11 @@
 //! push(signal, t, v, sink)   late (t ≤ t_k + gap of a sample out)    → Push::Late, dropped
 //!                            (signal, t) pending already             → Push::Duplicate, dropped
 //!                            span beyond the limit                   → Push::OutOfSpan, dropped
+//!                            more than the window after every time  → Push::Held, until
+//!                              taken                                     JUMP_CONFIRM readings
+//!                                                                        follow it (sorted in)
+//!                                                                        or JUMP_REJECT go on at
+//!                                                                        the old times (dropped)
 //!                            otherwise sorted in; grid points out once t_max ≥ t_k + gap + window
 //! flush(sink)                the rest of the grid (end of data for good)
 //! ```
@@ -43,6 +48,10 @@ pub struct AlignerCounts {
     pub late_current: u64,
     /// Readings beyond the span limit ([`Push::OutOfSpan`]), dropped.
     pub out_of_span: u64,
+    /// Readings held as a jump ([`Push::Held`]) that later readings did not follow: clock
+    /// glitches, dropped.
+    #[serde(default)]
+    pub glitches: u64,
     /// Aligned samples produced.
     pub samples: u64,
 }
@@ -53,7 +62,39 @@ pub struct AlignerCounts {
 pub struct Aligner {
     engine: Engine,
     counts: AlignerCounts,
+    /// Readings of a jump beyond the reorder window, in arrival order, not yet confirmed.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    held: Vec<HeldReading>,
+    /// Readings taken at the old times since the jump was held.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    against: u32,
 }
+
+/// A reading held while its jump is unconfirmed.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+struct HeldReading {
+    sig: Signal,
+    #[serde(with = "crate::exact")]
+    t: f64,
+    #[serde(with = "crate::exact")]
+    v: f64,
+}
+
+fn is_zero(n: &u32) -> bool {
+    *n == 0
+}
+
+/// Readings at or after a held jump that confirm it: a logger back after a pause brings
+/// several signals at once, a glitch is one reading (a gateway's clock, a flipped bit).
+const JUMP_CONFIRM: usize = 3;
+
+/// Readings at the old times after a held jump that make it a glitch: ten seconds of a logger
+/// of six signals at 1 Hz. One glitch taken had moved the clock to itself and made every
+/// later reading late, acknowledged and dropped, until real time caught up.
+const JUMP_REJECT: u32 = 60;
+
+/// Most readings held at once: far-off readings that never confirm one another are no jump.
+const MAX_HELD: usize = 64;
 
 /// The name alignment errors carry for a stream (there is no file).
 const STREAM_NAME: &str = "telemetry stream";
@@ -68,6 +109,8 @@ impl Aligner {
         Ok(Aligner {
             engine: Engine::new(cfg, false),
             counts: AlignerCounts::default(),
+            held: Vec::new(),
+            against: 0,
         })
     }
 
@@ -88,6 +131,55 @@ impl Aligner {
         v: f64,
         sink: &mut S,
     ) -> Result<Push, S::Error> {
+        // A jump beyond the reorder window is held until later readings say what it is.
+        let window = self.engine.window();
+        let beyond = self
+            .engine
+            .time_range()
+            .is_some_and(|(_, hi)| t > hi + window);
+        if beyond {
+            if self.held.len() >= MAX_HELD {
+                // Scattered far-off readings that never confirm one another: the oldest goes.
+                self.held.remove(0);
+                self.counts.glitches += 1;
+            }
+            self.held.push(HeldReading { sig, t, v });
+            let near = |h: &HeldReading| (h.t - t).abs() <= window;
+            if self.held.iter().filter(|h| near(h)).count() < JUMP_CONFIRM {
+                return Ok(Push::Held);
+            }
+            // Confirmed: the readings of this jump go in in their order, this one last; held
+            // readings of another time were glitches.
+            let held = std::mem::take(&mut self.held);
+            self.against = 0;
+            let (jump, other): (Vec<HeldReading>, Vec<HeldReading>) =
+                held.into_iter().partition(|h| near(h));
+            self.counts.glitches += other.len() as u64;
+            let (last, rest) = jump.split_last().expect("this reading is near itself");
+            for h in rest {
+                self.take_one(h.sig, h.t, h.v, sink)?;
+            }
+            return self.take_one(last.sig, last.t, last.v, sink);
+        }
+        if !self.held.is_empty() {
+            self.against += 1;
+            if self.against >= JUMP_REJECT {
+                self.counts.glitches += self.held.len() as u64;
+                self.held.clear();
+                self.against = 0;
+            }
+        }
+        self.take_one(sig, t, v, sink)
+    }
+
+    /// The reading through the engine, counted.
+    fn take_one<S: SampleSink>(
+        &mut self,
+        sig: Signal,
+        t: f64,
+        v: f64,
+        sink: &mut S,
+    ) -> Result<Push, S::Error> {
         let before = self.engine.samples;
         let outcome = match self.engine.refusal(sig, t) {
             Some(refused) => refused,
@@ -102,6 +194,7 @@ impl Aligner {
             Push::Duplicate => c.duplicate += 1,
             Push::LateCurrent => c.late_current += 1,
             Push::OutOfSpan => c.out_of_span += 1,
+            Push::Held => {}
         }
         c.samples += self.engine.samples - before;
         Ok(outcome)
@@ -113,6 +206,10 @@ impl Aligner {
     /// # Errors
     /// The sink's error.
     pub fn flush<S: SampleSink>(&mut self, sink: &mut S) -> Result<(), S::Error> {
+        // A jump nothing confirmed by the end is a glitch.
+        self.counts.glitches += self.held.len() as u64;
+        self.held.clear();
+        self.against = 0;
         let before = self.engine.samples;
         self.engine.flush(sink)?;
         self.counts.samples += self.engine.samples - before;
@@ -167,6 +264,16 @@ mod tests {
         let text = csv(rows);
         super::super::align_reader(Cursor::new(text), Path::new("t"), cfg, &mut out).unwrap();
         out
+    }
+
+    /// `out` is what the pass over a file of `rows` gives.
+    fn assert_same_as_file(out: &[Sample], rows: &[(Signal, f64, f64)], cfg: &AlignConfig) {
+        let want = file_samples(rows, cfg);
+        assert_eq!(out.len(), want.len());
+        assert!(out
+            .iter()
+            .zip(&want)
+            .all(|(x, y)| format!("{x:?}") == format!("{y:?}")));
     }
 
     #[test]
@@ -229,9 +336,57 @@ mod tests {
         );
         assert_eq!(
             a.push(Signal::Speed, 1e12, 2.0, &mut out).unwrap(),
-            Push::OutOfSpan
+            Push::Held
         );
         assert_eq!(a.counts().late, 1);
-        assert_eq!(a.counts().out_of_span, 1);
+        a.flush(&mut out).unwrap();
+        assert_eq!(
+            a.counts().glitches,
+            1,
+            "a jump nothing confirmed is a glitch"
+        );
+    }
+
+    #[test]
+    fn a_lone_reading_far_ahead_is_a_glitch_and_changes_no_sample() {
+        let cfg = AlignConfig::default().with_reorder_window(30.0).unwrap();
+        let rows = rows(600);
+        let mut a = Aligner::new(&cfg).unwrap();
+        let mut out: Vec<Sample> = Vec::new();
+        for (i, (sig, t, v)) in rows.iter().enumerate() {
+            if i == 1000 {
+                // A gateway's clock glitch: one reading 100 days ahead, through a checkpoint.
+                assert_eq!(
+                    a.push(Signal::Speed, 8.64e6, 0.0, &mut out).unwrap(),
+                    Push::Held
+                );
+                a = serde_json::from_str(&serde_json::to_string(&a).unwrap()).unwrap();
+            }
+            a.push(*sig, *t, *v, &mut out).unwrap();
+        }
+        a.flush(&mut out).unwrap();
+        assert_same_as_file(&out, &rows, &cfg);
+        let c = a.counts();
+        assert_eq!((c.glitches, c.late, c.taken), (1, 0, rows.len() as u64));
+    }
+
+    #[test]
+    fn a_logger_back_after_a_pause_is_a_jump_confirmed_and_taken() {
+        let cfg = AlignConfig::default().with_reorder_window(30.0).unwrap();
+        let mut rows = rows(300);
+        let later: Vec<_> = rows
+            .iter()
+            .map(|&(sig, t, v)| (sig, t + 5000.0, v))
+            .collect();
+        rows.extend(later);
+        let mut a = Aligner::new(&cfg).unwrap();
+        let mut out: Vec<Sample> = Vec::new();
+        for (sig, t, v) in &rows {
+            a.push(*sig, *t, *v, &mut out).unwrap();
+        }
+        a.flush(&mut out).unwrap();
+        assert_same_as_file(&out, &rows, &cfg);
+        let c = a.counts();
+        assert_eq!((c.glitches, c.taken), (0, rows.len() as u64));
     }
 }

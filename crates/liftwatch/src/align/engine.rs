@@ -206,6 +206,10 @@ pub enum Push {
     /// ([`super::Aligner`] only) its time would stretch the span of usable times beyond the
     /// limit (a clock jump): dropped.
     OutOfSpan,
+    /// ([`super::Aligner`] only) more than the reorder window after every time taken: held
+    /// until later readings confirm the jump (then sorted in) or go on at the old times (then
+    /// dropped as a clock glitch).
+    Held,
 }
 
 /// The alignment machinery shared by the streaming and the sorted pass over a file and by the
@@ -269,6 +273,11 @@ impl Engine {
     /// The step Δ (s).
     pub(super) fn step(&self) -> f64 {
         self.grid.step
+    }
+
+    /// The reorder window (s).
+    pub(super) fn window(&self) -> f64 {
+        self.window
     }
 
     /// Widens the known time range to `t`, refusing a span beyond the limit; `path` names the

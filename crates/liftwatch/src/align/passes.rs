@@ -72,7 +72,7 @@ pub(super) fn stream_pass<R: Read, S: SampleSink>(
             }
             // Engine::push returns neither: a file keeps duplicates (mean or last) and fails on
             // a span beyond the limit.
-            Push::Duplicate | Push::OutOfSpan => Ok(ControlFlow::Continue(())),
+            Push::Duplicate | Push::OutOfSpan | Push::Held => Ok(ControlFlow::Continue(())),
         }
     })?;
     if matches!(outcome, Outcome::Done) {
@@ -128,7 +128,7 @@ impl RowStream {
                 ),
             }
             .into()),
-            Push::Taken | Push::Duplicate | Push::OutOfSpan => Ok(()),
+            Push::Taken | Push::Duplicate | Push::OutOfSpan | Push::Held => Ok(()),
         }
     }
 

@@ -11,6 +11,7 @@ use liftwatch::model::TrainConfig;
 use liftwatch::Elevator;
 use liftwatch::{file, fit};
 
+use super::step::{differs, input_step, DEFAULT_STEP_S};
 use super::ui::{finite, ingest_json, named, warn, Ui, UiArgs};
 
 /// Flags of `liftwatch fit`.
@@ -50,9 +51,6 @@ pub struct Args {
     pub ui: UiArgs,
 }
 
-/// The step raw input is aligned at when `--step` is left out (s): alignment's default.
-const DEFAULT_STEP_S: f64 = 1.0;
-
 /// The optimiser choice on the command line.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum OptimizerArg {
@@ -78,8 +76,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let elevator = Elevator::from_toml_file(&args.elevator)?;
     let align = AlignConfig::default().with_step(args.step.unwrap_or(DEFAULT_STEP_S))?;
     let (mut series, mut report) = read_series(&args.input, &align)?;
-    let found = report.input_step_s.abs();
-    if found.is_finite() && found > 0.0 && (found - align.step_s).abs() > 1e-3 * align.step_s {
+    if let Some(found) = input_step(&report).filter(|&f| differs(f, align.step_s)) {
         if args.step.is_none() {
             // Aligned input keeps its step: re-stepped by interpolation it would be fitted at
             // a step the data do not have, and the model would record that step.

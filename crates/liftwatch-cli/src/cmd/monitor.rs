@@ -103,10 +103,7 @@ impl MethodArg {
     }
 
     fn name(self) -> &'static str {
-        match self {
-            MethodArg::Pinn => "pinn",
-            MethodArg::Threshold => "threshold",
-        }
+        self.method().name()
     }
 }
 
@@ -173,6 +170,8 @@ struct Sink<'a> {
     event_extra: String,
     /// Samples at or before this time were watched by an earlier run (NaN: none).
     covered_until: f64,
+    /// The aligned step (s), the model's.
+    step: f64,
     skip_covered: bool,
     samples: u64,
     skipped: u64,
@@ -303,8 +302,7 @@ impl SampleSink for Sink<'_> {
             return Ok(());
         }
         self.samples += 1;
-        let step = self.model.step_s.unwrap_or(1.0);
-        if self.samples == 1 && sample.time - self.covered_until > RESUME_GAP_STEPS * step {
+        if self.samples == 1 && sample.time - self.covered_until > RESUME_GAP_STEPS * self.step {
             // The samples between the state's last and this one are lost: each side of the
             // boundary was aligned without the other's readings.
             eprintln!(
@@ -405,6 +403,7 @@ pub fn run(args: Args) -> anyhow::Result<Status> {
         model: &model,
         method,
         covered_until: resume.as_ref().map_or(f64::NAN, |s| s.last_time),
+        step,
         resume,
         monitor: Monitor::new(&model, method),
         rows: Rows::File(rows),

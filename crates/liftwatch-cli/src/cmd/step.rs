@@ -14,11 +14,20 @@ use liftwatch::ingest::IngestReport;
 /// tolerance alignment itself uses for a uniform series.
 const STEP_TOLERANCE: f64 = 1e-3;
 
-/// The default step of models that do not record theirs (s), alignment's default.
-const DEFAULT_STEP_S: f64 = 1.0;
+/// The default step of models that do not record theirs, and of `fit` on raw input (s):
+/// alignment's default.
+pub const DEFAULT_STEP_S: f64 = 1.0;
 
-fn differs(a: f64, b: f64) -> bool {
+/// Whether step `a` is another than `b`, beyond [`STEP_TOLERANCE`] of `b`.
+pub fn differs(a: f64, b: f64) -> bool {
     (a - b).abs() > STEP_TOLERANCE * b
+}
+
+/// The step an aligned input was written at, as its rows come (a file written newest first
+/// shows −1 s, and alignment sorts it); `None` for raw input and rows all at one time.
+pub fn input_step(report: &IngestReport) -> Option<f64> {
+    let found = report.input_step_s.abs();
+    (found.is_finite() && found > 0.0).then_some(found)
 }
 
 /// The step to align at: the model's; `--step` only when it agrees (or the model is old).
@@ -49,10 +58,7 @@ pub fn model_step(model: &FittedModel, flag: Option<f64>) -> anyhow::Result<(f64
 /// # Errors
 /// One line naming both steps.
 pub fn check_input_step(step: f64, report: &IngestReport, input: &str) -> anyhow::Result<()> {
-    // The step between rows as they come: a file written newest first shows −1 s, and the
-    // alignment sorts it (as `align` does); rows all at one time show none.
-    let found = report.input_step_s.abs();
-    if found.is_finite() && found > 0.0 && differs(found, step) {
+    if let Some(found) = input_step(report).filter(|&f| differs(f, step)) {
         anyhow::bail!(
             "{input}: aligned at a step of {found} s, the model's step is {step} s: align the raw log at {step} s or refit at {found} s"
         );

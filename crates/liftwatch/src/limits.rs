@@ -46,37 +46,61 @@ pub fn check_strings(
     value: &serde_json::Value,
     max_chars: usize,
 ) -> std::result::Result<(), String> {
-    fn walk(v: &serde_json::Value, at: &str, max: usize) -> std::result::Result<(), String> {
-        let too_long =
-            |what: &str, n: usize| format!("{what} of {n} characters, expected at most {max}");
-        match v {
-            serde_json::Value::String(s) if s.chars().count() > max => {
-                Err(too_long(&format!("`{at}` is a string"), s.chars().count()))
-            }
-            serde_json::Value::Array(items) => items
-                .iter()
-                .enumerate()
-                .try_for_each(|(i, item)| walk(item, &format!("{at}[{i}]"), max)),
-            serde_json::Value::Object(fields) => fields.iter().try_for_each(|(key, item)| {
-                if key.chars().count() > max {
-                    let whose = if at.is_empty() {
-                        "the document".to_string()
-                    } else {
-                        format!("`{at}`")
-                    };
-                    return Err(too_long(&format!("{whose} has a key"), key.chars().count()));
-                }
-                let at = if at.is_empty() {
-                    key.clone()
-                } else {
-                    format!("{at}.{key}")
-                };
-                walk(item, &at, max)
-            }),
-            _ => Ok(()),
+    let too_long =
+        |what: &str, n: usize| format!("{what} of {n} characters, expected at most {max_chars}");
+    walk_json(value, "", &mut |at, place| match place {
+        JsonPlace::Leaf(serde_json::Value::String(s)) if s.chars().count() > max_chars => {
+            Err(too_long(&format!("`{at}` is a string"), s.chars().count()))
         }
+        JsonPlace::Key(key) if key.chars().count() > max_chars => {
+            let whose = if at.is_empty() {
+                "the document".to_string()
+            } else {
+                format!("`{at}`")
+            };
+            Err(too_long(&format!("{whose} has a key"), key.chars().count()))
+        }
+        _ => Ok(()),
+    })
+}
+
+/// A place of a JSON document as [`walk_json`] visits it: a key of an object, or a value that
+/// holds no other (a string, number, boolean or null).
+#[derive(Clone, Copy, Debug)]
+pub enum JsonPlace<'a> {
+    /// A key of the object at the path.
+    Key(&'a str),
+    /// The value at the path.
+    Leaf(&'a serde_json::Value),
+}
+
+/// Visits every key and leaf of `value` in document order with its path (`a.b[2]`; `at` is
+/// the path of `value` itself, empty for a whole document), until `f` fails: the one walk of
+/// the documents' checks (strings too long here, a monitor state's non-finite sums).
+///
+/// # Errors
+/// The first error of `f`.
+pub fn walk_json<E>(
+    value: &serde_json::Value,
+    at: &str,
+    f: &mut impl FnMut(&str, JsonPlace<'_>) -> std::result::Result<(), E>,
+) -> std::result::Result<(), E> {
+    match value {
+        serde_json::Value::Array(items) => items
+            .iter()
+            .enumerate()
+            .try_for_each(|(i, item)| walk_json(item, &format!("{at}[{i}]"), f)),
+        serde_json::Value::Object(fields) => fields.iter().try_for_each(|(key, item)| {
+            f(at, JsonPlace::Key(key))?;
+            let at = if at.is_empty() {
+                key.clone()
+            } else {
+                format!("{at}.{key}")
+            };
+            walk_json(item, &at, f)
+        }),
+        leaf => f(at, JsonPlace::Leaf(leaf)),
     }
-    walk(value, "", max_chars)
 }
 
 /// Reads the whole of a small document, refusing one longer than `max_bytes` before reading

@@ -305,35 +305,21 @@ pub struct MonitorState {
 /// rising again. The latest assessment (`risk.last`) is left out: its drifts are NaN where
 /// the decision holds no change, and the next trip forms it anew.
 fn non_finite_accumulator(state: &serde_json::Value) -> Option<String> {
-    fn walk(v: &serde_json::Value, path: &mut String) -> Option<String> {
-        use serde_json::Value;
-        match v {
-            Value::String(t) => t
-                .parse::<f64>()
-                .is_ok_and(|x| !x.is_finite())
-                .then(|| path.clone()),
-            Value::Array(items) => items.iter().enumerate().find_map(|(i, x)| {
-                let len = path.len();
-                path.push_str(&format!("[{i}]"));
-                let found = walk(x, path);
-                path.truncate(len);
-                found
-            }),
-            Value::Object(fields) => fields.iter().find_map(|(k, x)| {
-                let len = path.len();
-                path.push('.');
-                path.push_str(k);
-                let found = walk(x, path);
-                path.truncate(len);
-                found
-            }),
-            _ => None,
-        }
-    }
+    use crate::limits::{walk_json, JsonPlace};
     let risk = state.get("risk")?.as_object()?;
     risk.iter()
         .filter(|(k, _)| k.as_str() != "last")
-        .find_map(|(k, x)| walk(x, &mut format!("risk.{k}")))
+        .find_map(|(k, x)| {
+            walk_json(x, &format!("risk.{k}"), &mut |at, place| match place {
+                JsonPlace::Leaf(serde_json::Value::String(t))
+                    if t.parse::<f64>().is_ok_and(|x| !x.is_finite()) =>
+                {
+                    Err(at.to_string())
+                }
+                _ => Ok(()),
+            })
+            .err()
+        })
 }
 
 impl MonitorState {

@@ -266,31 +266,32 @@ mod tests {
         out
     }
 
+    /// An aligner fed `rows` one by one and flushed, with the samples it produced.
+    fn pushed(rows: &[(Signal, f64, f64)], cfg: &AlignConfig) -> (Aligner, Vec<Sample>) {
+        let mut a = Aligner::new(cfg).unwrap();
+        let mut out: Vec<Sample> = Vec::new();
+        for (sig, t, v) in rows {
+            a.push(*sig, *t, *v, &mut out).unwrap();
+        }
+        a.flush(&mut out).unwrap();
+        (a, out)
+    }
+
     /// `out` is what the pass over a file of `rows` gives.
     fn assert_same_as_file(out: &[Sample], rows: &[(Signal, f64, f64)], cfg: &AlignConfig) {
         let want = file_samples(rows, cfg);
         assert_eq!(out.len(), want.len());
-        assert!(out
-            .iter()
-            .zip(&want)
-            .all(|(x, y)| format!("{x:?}") == format!("{y:?}")));
+        for (x, y) in out.iter().zip(&want) {
+            assert_eq!(format!("{x:?}"), format!("{y:?}"));
+        }
     }
 
     #[test]
     fn pushed_readings_give_the_samples_of_the_file_pass() {
         let cfg = AlignConfig::default().with_reorder_window(30.0).unwrap();
         let rows = rows(600);
-        let mut a = Aligner::new(&cfg).unwrap();
-        let mut out: Vec<Sample> = Vec::new();
-        for (sig, t, v) in &rows {
-            a.push(*sig, *t, *v, &mut out).unwrap();
-        }
-        a.flush(&mut out).unwrap();
-        let want = file_samples(&rows, &cfg);
-        assert_eq!(out.len(), want.len());
-        for (x, y) in out.iter().zip(&want) {
-            assert_eq!(format!("{x:?}"), format!("{y:?}"));
-        }
+        let (_, out) = pushed(&rows, &cfg);
+        assert_same_as_file(&out, &rows, &cfg);
     }
 
     #[test]
@@ -311,11 +312,7 @@ mod tests {
             a = serde_json::from_str(&json).unwrap();
         }
         a.flush(&mut out).unwrap();
-        let want = file_samples(&rows, &cfg);
-        assert_eq!(out.len(), want.len());
-        for (x, y) in out.iter().zip(&want) {
-            assert_eq!(format!("{x:?}"), format!("{y:?}"));
-        }
+        assert_same_as_file(&out, &rows, &cfg);
         let c = a.counts();
         assert_eq!(c.taken, rows.len() as u64);
         let resent = rows.chunks(60).step_by(3).map(<[_]>::len).sum::<usize>();
@@ -379,12 +376,7 @@ mod tests {
             .map(|&(sig, t, v)| (sig, t + 5000.0, v))
             .collect();
         rows.extend(later);
-        let mut a = Aligner::new(&cfg).unwrap();
-        let mut out: Vec<Sample> = Vec::new();
-        for (sig, t, v) in &rows {
-            a.push(*sig, *t, *v, &mut out).unwrap();
-        }
-        a.flush(&mut out).unwrap();
+        let (a, out) = pushed(&rows, &cfg);
         assert_same_as_file(&out, &rows, &cfg);
         let c = a.counts();
         assert_eq!((c.glitches, c.taken), (0, rows.len() as u64));

@@ -235,7 +235,7 @@ fn status_refuses_a_missing_or_foreign_state_in_one_line() {
 }
 
 #[test]
-fn simulate_can_switch_the_drive_off_at_rest_and_use_the_papers_load_cell() {
+fn simulate_can_switch_the_drive_off_at_rest_use_the_papers_load_cell_and_a_lossy_transmission() {
     let dir = Dir::new("drive-off");
     let out = dir.0.join("sim");
     let run = liftwatch(&[
@@ -250,6 +250,8 @@ fn simulate_can_switch_the_drive_off_at_rest_and_use_the_papers_load_cell() {
         "off",
         "--load-cell",
         "constant-k",
+        "--efficiency",
+        "0.9",
         "--quiet",
     ]);
     assert!(run.ok, "{}", run.stderr);
@@ -257,6 +259,7 @@ fn simulate_can_switch_the_drive_off_at_rest_and_use_the_papers_load_cell() {
         serde_json::from_str(&std::fs::read_to_string(out.join("truth.json")).unwrap()).unwrap();
     assert_eq!(truth["plant"]["drive_at_rest"]["kind"], "off");
     assert_eq!(truth["plant"]["load_cell_load_gain"], 0.0);
+    assert_eq!(truth["plant"]["efficiency"], 0.9);
     // Between trips the voltage reads the sensor's offset, not U0 (1-3 % of rated voltage).
     let rest: Vec<f64> = std::fs::read_to_string(out.join("aligned.csv"))
         .unwrap()
@@ -280,5 +283,12 @@ fn simulate_can_switch_the_drive_off_at_rest_and_use_the_papers_load_cell() {
         !bad.ok && bad.stderr.contains("sometimes"),
         "{}",
         bad.stderr
+    );
+    let lossy = liftwatch(&["simulate", "--out", s(&out), "--efficiency", "0.4"]);
+    assert!(
+        !lossy.ok
+            && lossy.stderr.trim() == "liftwatch: --efficiency 0.4 must lie between 0.5 and 1",
+        "{}",
+        lossy.stderr
     );
 }

@@ -12,6 +12,7 @@ use std::time::Instant;
 use anyhow::Context;
 use liftwatch::evaluate::{run_suite, table, SuiteConfig};
 
+use super::simulate::DriveArg;
 use super::ui::{Ui, UiArgs};
 
 /// Flags of `liftwatch evaluate`.
@@ -51,6 +52,14 @@ pub struct Args {
     /// healthy" --only "E1 motor"`); each selected case runs exactly as in the whole suite.
     #[arg(long, value_name = "TEXT")]
     pub only: Vec<String>,
+    /// Every plant's drive between trips: energised (the voltage shows U0) or off (the
+    /// sensor's offset, with pre-torque while the brake lifts and drops), as most real drives.
+    #[arg(long, value_enum, default_value_t = DriveArg::Energised)]
+    pub drive_at_rest: DriveArg,
+    /// Every plant's transmission efficiency η (0.5-1): the drive needs F/η while it drives
+    /// the car and gives back F·η while the car drives it; 1 is lossless.
+    #[arg(long, default_value_t = 1.0)]
+    pub efficiency: f64,
     /// Summary: --quiet, --json.
     #[command(flatten)]
     pub ui: UiArgs,
@@ -73,10 +82,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     cfg.ramp_days = args.ramp_days;
     cfg.severity_scale = args.severity_scale;
     cfg.only = args.only;
+    cfg.drive_at_rest = args.drive_at_rest.plant();
+    cfg.efficiency = args.efficiency;
     let ui = Ui::new(args.ui, &[])?;
     let clock = Instant::now();
     ui.say(format_args!(
-        "evaluate: {} suite, seed {}, trainings of {} days, faults over {} days ({}, severity x{}), healthy runs of {} days, {} thread(s)",
+        "evaluate: {} suite, seed {}, trainings of {} days, faults over {} days ({}, severity x{}), healthy runs of {} days, drives {} at rest, transmission η {}, {} thread(s)",
         if args.quick { "quick" } else { "full" },
         args.seed,
         cfg.train_days,
@@ -87,6 +98,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         ),
         cfg.severity_scale,
         cfg.healthy_days,
+        match args.drive_at_rest {
+            DriveArg::Energised => "energised",
+            DriveArg::Off => "off",
+        },
+        cfg.efficiency,
         args.threads
     ));
     let ev = run_suite(&cfg, &|line| ui.progress(format_args!("evaluate: {line}")))

@@ -76,6 +76,11 @@ pub struct Args {
     /// constant-k cell (feels a fixed mass only).
     #[arg(long, value_enum, default_value_t = LoadCellArg::Platform)]
     pub load_cell: LoadCellArg,
+    /// The transmission's efficiency η between motor and car (0.5-1): the drive needs F/η
+    /// while it drives the car and gives back F·η while the car drives it. 1 is lossless, the
+    /// paper's model, whose only asymmetry is the direction of travel.
+    #[arg(long, default_value_t = 1.0)]
+    pub efficiency: f64,
     /// The doors: catalogue timings that never reopen (the default), the field's (3 % of
     /// cycles reopen), or the field's slowing and reopening more from the onset.
     #[arg(long, value_enum, default_value_t = DoorsArg::Ideal)]
@@ -129,8 +134,17 @@ pub enum DriveArg {
     Off,
 }
 
-/// What the voltage sensor reads with the drive off (V): an offset of a few tenths of a volt.
-const DRIVE_OFF_IDLE_V: f64 = 0.3;
+impl DriveArg {
+    /// The plant's drive at rest this flag asks for.
+    pub fn plant(self) -> sim::DriveAtRest {
+        match self {
+            DriveArg::Energised => sim::DriveAtRest::Energised,
+            DriveArg::Off => sim::DriveAtRest::Off {
+                idle_v: sim::plant::DRIVE_OFF_IDLE_V,
+            },
+        }
+    }
+}
 
 /// `--load-cell`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -248,16 +262,22 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         });
     }
     cfg.validate()?;
-    if args.drive_at_rest != DriveArg::Energised || args.load_cell != LoadCellArg::Platform {
+    anyhow::ensure!(
+        (sim::plant::MIN_EFFICIENCY..=1.0).contains(&args.efficiency),
+        "--efficiency {} must lie between {} and 1",
+        liftwatch::error::number(args.efficiency),
+        sim::plant::MIN_EFFICIENCY
+    );
+    if args.drive_at_rest != DriveArg::Energised
+        || args.load_cell != LoadCellArg::Platform
+        || args.efficiency != 1.0
+    {
         let mut plant = cfg.hidden_plant();
-        if args.drive_at_rest == DriveArg::Off {
-            plant.drive_at_rest = sim::DriveAtRest::Off {
-                idle_v: DRIVE_OFF_IDLE_V,
-            };
-        }
+        plant.drive_at_rest = args.drive_at_rest.plant();
         if args.load_cell == LoadCellArg::ConstantK {
             plant.load_cell_load_gain = 0.0;
         }
+        plant.efficiency = args.efficiency;
         cfg.plant = Some(plant);
     }
     let ui = Ui::new(args.ui, &[])?;

@@ -24,9 +24,10 @@ use crate::mode::FaultMode;
 use crate::model::TrainConfig;
 use crate::monitor::{Method, Monitor};
 use crate::rng::Rng;
+use crate::sim::plant::MIN_EFFICIENCY;
 use crate::sim::scenario::healthy_or_mode;
 use crate::sim::scenario::VOLTAGE_OFFSET_V;
-use crate::sim::{self, Ramp, Scenario, SensorFault, SimConfig, SimElevator};
+use crate::sim::{self, DriveAtRest, Ramp, Scenario, SensorFault, SimConfig, SimElevator};
 
 /// Hour of the day at which a training shorter than a day starts: 07:00, the morning peak
 /// of the simulator's office traffic, as a technician would record the paper's 3 hours.
@@ -87,6 +88,12 @@ pub struct SuiteConfig {
     /// and its elevator's training are the same as in the whole suite: every seed derives
     /// from the elevator's place in the fleet and the case's name, never from the selection.
     pub only: Vec<String>,
+    /// What every plant's drive does at standstill: energised (the default) or off, as most
+    /// real drives are ([`DriveAtRest`]).
+    pub drive_at_rest: DriveAtRest,
+    /// Every plant's transmission efficiency η ([`SimElevator::efficiency`]); 1, lossless, by
+    /// default.
+    pub efficiency: f64,
 }
 
 impl SuiteConfig {
@@ -102,6 +109,8 @@ impl SuiteConfig {
             severity_scale: 1.0,
             threads: 2,
             only: Vec::new(),
+            drive_at_rest: DriveAtRest::Energised,
+            efficiency: 1.0,
         }
     }
 }
@@ -138,6 +147,15 @@ pub fn cases(cfg: &SuiteConfig, fleet: &[FleetElevator]) -> Result<Vec<Case>> {
         return Err(Error::InvalidConfig {
             field: "evaluate.severity_scale",
             why: format!("{} must be positive", cfg.severity_scale),
+        });
+    }
+    if !(MIN_EFFICIENCY..=1.0).contains(&cfg.efficiency) {
+        return Err(Error::InvalidConfig {
+            field: "evaluate.efficiency",
+            why: format!(
+                "{} must lie between {MIN_EFFICIENCY} and 1",
+                crate::error::number(cfg.efficiency)
+            ),
         });
     }
     let span = cfg.fault_days * DAY_S;
@@ -304,8 +322,10 @@ pub struct ElevatorReport {
 /// # Errors
 /// Whatever simulation, fit or calibration fail with.
 pub fn train(fe: &FleetElevator, e: usize, cfg: &SuiteConfig) -> Result<Trained> {
-    let plant =
+    let mut plant =
         SimElevator::from_elevator(&fe.elevator, &mut Rng::new(derive_seed(cfg.seed, e, 1)));
+    plant.drive_at_rest = cfg.drive_at_rest;
+    plant.efficiency = cfg.efficiency;
     let mut sc = SimConfig::new(
         fe.elevator.clone(),
         cfg.train_days,

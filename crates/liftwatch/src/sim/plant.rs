@@ -5,6 +5,7 @@
 //! m_eq(x) = m_car + m_load − m_cw + μ·(H − 2x + o_c − o_w) + μ_tc·(x − H/2)/2
 //! F    = M_tot·a + m_eq(x)·g + k_f·F_c,s·s·(1 + k_st·exp(−(v/v_st)²)) + k_f·c·v + F_brake
 //! U    = U0 + Ke·|v| + φ(s)·Kd(t)·F·s            φ(+1) = 1, φ(−1) = α_down
+//!        × η^(−1) motoring (F·s > 0), × η regenerating   η: transmission efficiency
 //! Kd(t) = Kd·(1 + 0.0039/K·(T_w(t) − T_ref))·k_motor
 //! T_w  = T_amb(t) + ΔT,  dΔT/dt = (ΔT_full·(F/F_ref)²·[moving] − ΔT)/τ_th
 //! L%   = 100·(m_load·(g + a) + m_platform·a)/(M_r·g)
@@ -41,6 +42,9 @@ pub struct Thermal {
     /// Temperature at which Kd has its nominal value (°C).
     pub t_ref_c: f64,
 }
+
+/// What the voltage sensor reads with the drive off (V): an offset of a few tenths of a volt.
+pub const DRIVE_OFF_IDLE_V: f64 = 0.3;
 
 /// What the drive does at standstill.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -133,6 +137,15 @@ pub struct SimElevator {
     /// keeps its seeds).
     #[serde(default)]
     pub drive_at_rest: DriveAtRest,
+    /// η: the transmission's efficiency between the motor and the car (ropes bending over the
+    /// sheave, bearings, a gearbox where there is one). The motor supplies F/η while it drives
+    /// the car (F·s > 0) and receives F·η while the car drives it (regenerating), so the
+    /// resistive voltage is keyed to the power's direction, not the car's: an empty car going
+    /// down is driven, a full one brakes. 1 (the default, and in truth files written before it
+    /// was kept) leaves MODEL.md's directional response φ(s) as the drive's only asymmetry;
+    /// gearless machines run at 0.85-0.95, geared ones lower.
+    #[serde(default = "lossless")]
+    pub efficiency: f64,
     /// How much of the load's inertia the load cell feels: 1 for a cell under the platform,
     /// 0 for the paper's constant-k cell (`load = 100·λ + a/k`), which feels a fixed mass only.
     #[serde(default = "unit_gain")]
@@ -143,6 +156,15 @@ pub struct SimElevator {
 
 /// The load gain of a cell under the platform.
 fn unit_gain() -> f64 {
+    1.0
+}
+
+/// The lowest transmission efficiency a plant takes: below one half a worm gear locks
+/// itself, and no traction machine of the contract's range runs that lossy.
+pub const MIN_EFFICIENCY: f64 = 0.5;
+
+/// The efficiency of a transmission without losses.
+fn lossless() -> f64 {
     1.0
 }
 
@@ -217,6 +239,7 @@ impl SimElevator {
                 t_ref_c: 0.0,
             },
             drive_at_rest: DriveAtRest::Energised,
+            efficiency: 1.0,
             load_cell_load_gain: 1.0,
             sensors: SensorSpec {
                 speed_noise_mps: rng.uniform(0.003, 0.007),
@@ -311,7 +334,18 @@ impl SimElevator {
     pub fn voltage(&self, v: f64, force: f64, kd: f64) -> f64 {
         let s = sign(v);
         let phi = if s < 0 { self.alpha_down } else { 1.0 };
-        (self.u0 + self.ke * v.abs() + phi * kd * force * f64::from(s)).max(0.0)
+        let drop = kd * force * f64::from(s);
+        (self.u0 + self.ke * v.abs() + phi * self.transmission(drop) * drop).max(0.0)
+    }
+
+    /// The transmission's factor on the resistive voltage `drop` = Kd·F·s: 1/η when the motor
+    /// drives the car (a positive drop), η when the car drives the motor.
+    fn transmission(&self, drop: f64) -> f64 {
+        if drop > 0.0 {
+            1.0 / self.efficiency
+        } else {
+            self.efficiency
+        }
     }
 
     /// Motor voltage magnitude (V) the drive shows at height `x`, velocity `v`, force `force`,
@@ -414,6 +448,27 @@ mod tests {
         let f_full = p.force(x, 1.75, 0.0, 1000.0, &NONE);
         assert!(f_full > 0.0 && p.voltage(1.75, f_full, p.kd) > p.u0 + p.ke * 1.75);
         assert_eq!(p.voltage(0.0, 1234.0, p.kd), p.u0);
+    }
+
+    #[test]
+    fn a_lossy_transmission_asks_more_voltage_driving_and_gives_less_back_braking() {
+        let mut p = plant();
+        let x = 0.5 * p.travel_m();
+        let (v, kd) = (1.75f64, p.kd);
+        let emf = p.u0 + p.ke * v;
+        // Full car up: the motor drives. Empty car up: the counterweight drives the motor.
+        let f_full = p.force(x, v, 0.0, 1000.0, &NONE);
+        let f_empty = p.force(x, v, 0.0, 0.0, &NONE);
+        let (full, empty) = (p.voltage(v, f_full, kd), p.voltage(v, f_empty, kd));
+        p.efficiency = 0.8;
+        let (full_lossy, empty_lossy) = (p.voltage(v, f_full, kd), p.voltage(v, f_empty, kd));
+        assert!(((full_lossy - emf) / (full - emf) - 1.0 / 0.8).abs() < 1e-12);
+        assert!(((empty_lossy - emf) / (empty - emf) - 0.8).abs() < 1e-12);
+        // Going down the roles swap: the empty car is driven down against the counterweight.
+        let f_empty_down = p.force(x, -v, 0.0, 0.0, &NONE);
+        let drop_down = p.voltage(-v, f_empty_down, kd) - emf;
+        let expected = p.alpha_down * kd * -f_empty_down / 0.8;
+        assert!(drop_down > 0.0 && (drop_down - expected).abs() < 1e-9);
     }
 
     #[test]

@@ -1,4 +1,5 @@
-//! Small dense linear algebra for the fit: symmetric positive-definite solves and inverses.
+//! Small dense linear algebra for the fit: symmetric positive-definite solves and inverses, and
+//! the positive semi-definite part of a 3×3 covariance.
 //!
 //! Written by hand: the fit's normal equations are at most a few dozen unknowns, where a
 //! Cholesky factorisation is twenty lines and a linear-algebra crate would cost more
@@ -116,9 +117,88 @@ impl SquareMatrix {
     }
 }
 
+/// The positive semi-definite part of a symmetric 3×3 matrix: its eigen-decomposition with
+/// the negative eigenvalues set to zero (the nearest PSD matrix in the Frobenius norm). A
+/// covariance estimated as a difference (a spread less the noise that explains part of it)
+/// can come out indefinite where a direction's spread is all noise; that direction has no
+/// excess, not a negative one. Cyclic Jacobi rotations: a 3×3 converges to rounding in a few
+/// sweeps.
+pub fn psd_part3(a: [[f64; 3]; 3]) -> [[f64; 3]; 3] {
+    let mut d = a;
+    let mut v = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    for _sweep in 0..50 {
+        let off = d[0][1].powi(2) + d[0][2].powi(2) + d[1][2].powi(2);
+        let scale = d[0][0].powi(2) + d[1][1].powi(2) + d[2][2].powi(2);
+        // Converged (or not a number, which no rotation mends).
+        if off <= 1e-30 * scale || off.is_nan() {
+            break;
+        }
+        for (p, q) in [(0, 1), (0, 2), (1, 2)] {
+            if d[p][q] == 0.0 {
+                continue;
+            }
+            let theta = (d[q][q] - d[p][p]) / (2.0 * d[p][q]);
+            let t = theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt());
+            let t = if theta == 0.0 { 1.0 } else { t };
+            let c = 1.0 / (t * t + 1.0).sqrt();
+            let s = t * c;
+            // D ← Jᵀ·D·J, V ← V·J with the rotation J in the (p, q) plane.
+            for row in &mut d {
+                let (dkp, dkq) = (row[p], row[q]);
+                row[p] = c * dkp - s * dkq;
+                row[q] = s * dkp + c * dkq;
+            }
+            let (row_p, row_q) = (d[p], d[q]);
+            for k in 0..3 {
+                d[p][k] = c * row_p[k] - s * row_q[k];
+                d[q][k] = s * row_p[k] + c * row_q[k];
+            }
+            for row in &mut v {
+                let (vp, vq) = (row[p], row[q]);
+                row[p] = c * vp - s * vq;
+                row[q] = s * vp + c * vq;
+            }
+        }
+    }
+    let lambda = [d[0][0].max(0.0), d[1][1].max(0.0), d[2][2].max(0.0)];
+    std::array::from_fn(|i| {
+        std::array::from_fn(|j| (0..3).map(|k| v[i][k] * lambda[k] * v[j][k]).sum())
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_psd_part_keeps_a_covariance_and_drops_a_negative_direction() {
+        // A covariance comes back as it is.
+        let c = [[4.0, 2.0, 0.6], [2.0, 5.0, 1.0], [0.6, 1.0, 3.0]];
+        let got = psd_part3(c);
+        for i in 0..3 {
+            for j in 0..3 {
+                assert!((got[i][j] - c[i][j]).abs() < 1e-12, "{got:?}");
+            }
+        }
+        // diag(2, −1, 0.5) rotated: the −1 direction goes, the others stay.
+        let (cs, sn) = (0.6f64, 0.8f64);
+        let r = [[cs, -sn, 0.0], [sn, cs, 0.0], [0.0, 0.0, 1.0]];
+        let rot = |l: [f64; 3]| -> [[f64; 3]; 3] {
+            std::array::from_fn(|i| {
+                std::array::from_fn(|j| (0..3).map(|k| r[i][k] * l[k] * r[j][k]).sum())
+            })
+        };
+        let got = psd_part3(rot([2.0, -1.0, 0.5]));
+        let want = rot([2.0, 0.0, 0.5]);
+        for i in 0..3 {
+            for j in 0..3 {
+                assert!(
+                    (got[i][j] - want[i][j]).abs() < 1e-12,
+                    "{got:?} against {want:?}"
+                );
+            }
+        }
+    }
 
     #[test]
     fn cholesky_solves_and_inverts_a_known_system() {

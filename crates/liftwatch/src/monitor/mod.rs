@@ -36,7 +36,9 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use crate::alarm::{update_episode, AlarmState, Event, Evidence, FaultMode, Level};
+use crate::alarm::{
+    diagnose, raising_ratio, update_episode, AlarmState, Event, Evidence, FaultMode, Level,
+};
 use crate::baseline::Baseline;
 use crate::error::{Error, Result};
 use crate::features::{FeatureRow, FeatureTracker, Trip};
@@ -779,7 +781,9 @@ impl Monitor {
             witnessed = w;
             &witnessed
         };
-        st.alarm.update_machine(a.risk, a.decision.ratio, cfg);
+        let named = diagnose(a, cfg);
+        let seq = raising_ratio(st.alarm.machine_level(), a.decision.ratio, named);
+        st.alarm.update_machine(a.risk, seq, cfg);
         let level = st.alarm.level();
         let mut event = None;
         if update_episode(&mut st.episode_mode, before, &st.alarm, a, cfg) {

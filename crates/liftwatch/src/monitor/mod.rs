@@ -36,9 +36,7 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use crate::alarm::{
-    diagnose, raising_ratio, update_episode, AlarmState, Event, Evidence, FaultMode, Level,
-};
+use crate::alarm::{diagnose, update_episode, AlarmState, Event, Evidence, FaultMode, Level};
 use crate::baseline::Baseline;
 use crate::error::{Error, Result};
 use crate::features::{FeatureRow, FeatureTracker, Trip};
@@ -781,8 +779,9 @@ impl Monitor {
             witnessed = w;
             &witnessed
         };
-        let named = diagnose(a, cfg);
-        let seq = raising_ratio(st.alarm.machine_level(), a.decision.ratio, named);
+        let seq = st
+            .alarm
+            .raising_ratio(x.time, a.decision.ratio, diagnose(a, cfg));
         st.alarm.update_machine(a.risk, seq, cfg);
         let level = st.alarm.level();
         let mut event = None;

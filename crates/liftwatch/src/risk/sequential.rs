@@ -873,9 +873,13 @@ fn isolate(cfg: &SequentialConfig, c: &Cusum) -> (FaultMode, FaultMode, [f64; N_
         };
     }
     let noise_best = z2.iter().fold(0.0f64, |a, &b| a.max(b));
-    if let Some(sigma) = &cfg.wander_cov {
+    let wander = cfg
+        .wander_cov
+        .as_ref()
+        .map(|sigma| Wander::new(&w, sigma, c));
+    if let Some(wander) = &wander {
         for m in 0..N_MODES {
-            z2[m] = Window::new(cfg.s2[m], &w, sigma, c).alone(m);
+            z2[m] = wander.window(cfg.s2[m]).alone(m);
         }
     }
     let z2_load = match &cfg.load {
@@ -895,7 +899,7 @@ fn isolate(cfg: &SequentialConfig, c: &Cusum) -> (FaultMode, FaultMode, [f64; N_
     let machine = if rubs(order[0])
         && rubs(order[1])
         && machine != FaultMode::Brake
-        && brake_beyond_friction(cfg, c, &w) >= odds
+        && brake_beyond_friction(cfg, c, &w, wander.as_ref()) >= odds
     {
         FaultMode::Brake
     } else {
@@ -919,10 +923,15 @@ fn isolate(cfg: &SequentialConfig, c: &Cusum) -> (FaultMode, FaultMode, [f64; N_
 /// rise of friction in both directions does not have; when that asymmetric part explains the
 /// window beyond friction by [`ISOLATION_ODDS`], the brake is named. Both scores share the
 /// larger of the two healthy noise factors s².
-fn brake_beyond_friction(cfg: &SequentialConfig, c: &Cusum, w: &[[f64; N_MODES]; N_MODES]) -> f64 {
+fn brake_beyond_friction(
+    cfg: &SequentialConfig,
+    c: &Cusum,
+    w: &[[f64; N_MODES]; N_MODES],
+    wander: Option<&Wander>,
+) -> f64 {
     let (b, f) = (FaultMode::Brake as usize, FaultMode::Friction as usize);
-    if let Some(sigma) = &cfg.wander_cov {
-        return Window::new(cfg.s2[b].max(cfg.s2[f]), w, sigma, c).beyond(b, f);
+    if let Some(wander) = wander {
+        return wander.window(cfg.s2[b].max(cfg.s2[f])).beyond(b, f);
     }
     let det = w[b][b] * w[f][f] - w[b][f] * w[b][f];
     if !(det > 0.0 && w[f][f] > 0.0) {
@@ -941,8 +950,10 @@ fn brake_beyond_friction(cfg: &SequentialConfig, c: &Cusum, w: &[[f64; N_MODES];
 }
 
 /// A window's scores S = Σ score and information W = Σ x·xᵀ weighed against the healthy
-/// noise and wander together: cov(S) = V = s²·W + W·Σ_w·W (the noise grows with the trips,
-/// the wander with their square: no number of trips averages it away). A hypothesis that
+/// noise and wander together: cov(S) = V = s²·W + (B/n)·W·Σ_w·W over n trips (the noise
+/// grows with the trips; the wander with their square within one block of B, which no number
+/// of its trips averages away, and with the blocks over many, which wander independently;
+/// [`Wander`]). A hypothesis that
 /// the window's change lies along the columns A of W (the signatures it names) is tested by
 /// its generalised least squares: z² = gᵀ·M⁻¹·g with g = Aᵀ·V⁻¹·S and M = Aᵀ·V⁻¹·A. With
 /// Σ_w = 0 this is the noise-only z² of the isolation's notes.
@@ -955,29 +966,47 @@ struct Window {
     s: [f64; N_MODES],
 }
 
-impl Window {
-    fn new(s2: f64, w: &[[f64; N_MODES]; N_MODES], sigma: &[f64; 6], c: &Cusum) -> Window {
+/// A window's W, S and the wander's share of cov(S), (B/n)·W·Σ_w·W, formed once for the
+/// isolation's four tests, which differ only in their noise factor s².
+struct Wander {
+    /// W.
+    w: [[f64; N_MODES]; N_MODES],
+    /// S.
+    s: [f64; N_MODES],
+    /// (B/n)·W·Σ_w·W.
+    wsw: [[f64; N_MODES]; N_MODES],
+}
+
+impl Wander {
+    fn new(w: &[[f64; N_MODES]; N_MODES], sigma: &[f64; 6], c: &Cusum) -> Wander {
         // The blocks wander independently of each other: over a window of n trips the
         // wander's share of S is B/n of one block's (B = WANDER_BLOCK_TRIPS), all of it in a
         // window within one block.
         let blocks = (f64::from(c.trips) / WANDER_BLOCK_TRIPS as f64).max(1.0);
         let sig = unpack(sigma).map(|row| row.map(|v| v / blocks));
-        let wsw: [[f64; N_MODES]; N_MODES] = std::array::from_fn(|i| {
+        let wsw = std::array::from_fn(|i| {
             std::array::from_fn(|j| {
                 (0..N_MODES)
                     .map(|k| w[i][k] * (0..N_MODES).map(|l| sig[k][l] * w[l][j]).sum::<f64>())
                     .sum()
             })
         });
-        let v = |i: usize, j: usize| s2 * w[i][j] + wsw[i][j];
+        Wander { w: *w, s: c.s, wsw }
+    }
+
+    /// The window weighed against noise of factor `s2` and the wander.
+    fn window(&self, s2: f64) -> Window {
+        let v = |i: usize, j: usize| s2 * self.w[i][j] + self.wsw[i][j];
         let packed = [v(0, 0), v(0, 1), v(0, 2), v(1, 1), v(1, 2), v(2, 2)];
         Window {
             v_inv: spd_inverse(&packed).unwrap_or([[0.0; N_MODES]; N_MODES]),
-            w: *w,
-            s: c.s,
+            w: self.w,
+            s: self.s,
         }
     }
+}
 
+impl Window {
     /// uᵀ·V⁻¹·v.
     fn form(&self, u: &[f64; N_MODES], v: &[f64; N_MODES]) -> f64 {
         (0..N_MODES)

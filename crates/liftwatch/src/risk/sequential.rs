@@ -156,7 +156,8 @@ pub struct SequentialConfig {
     pub load: Option<LoadReference>,
     /// Σ_w: the healthy wander of the three coefficients jointly between blocks of
     /// [`WANDER_BLOCK_TRIPS`] trips beyond their noise (packed covariance, coefficient units²;
-    /// [`SequentialConfig::block_wander_cov`]). The isolation weighs a window against it: a
+    /// measured by [`SequentialConfig::reference`] from at least [`MIN_WANDER_BLOCKS`]
+    /// blocks). The isolation weighs a window against it: a
     /// healthy elevator's coefficients wander together along the directions its traffic and
     /// winding move them, and a window that moved that way is weak evidence for any one mode.
     /// `None` in models fitted before it was kept, whose isolation weighs the trips' noise alone.

@@ -1164,7 +1164,10 @@
     const asOf = fin(v.time) ? ` (as of ${instantText(v.time, clock)})` : ' (no data watched yet)';
     const hd = headlineDrift(v);
     let headline;
-    if (lv === 'normal') {
+    if (lv === 'normal' && fin(v.cusum_ratio) && v.cusum_ratio >= 1) {
+      // As `status` says it: a crossing held back because no signature explains it yet.
+      headline = `NORMAL${asOf}, watching: a change the fault signatures cannot yet tell apart (G/h ${v.cusum_ratio.toFixed(2)}; drifts ${(v.drifts || []).map(driftText).join(', ')}); it becomes an advisory once it names its mode, doubles, or has stood a day; ${v.inspect}.`;
+    } else if (lv === 'normal') {
       headline = `NORMAL${asOf}: consistent with the healthy reference (drifts ${(v.drifts || []).map(driftText).join(', ')}); ${v.inspect}.`;
     } else {
       const since = fin(v.since) ? ` since ${dayText(v.since, clock)}` : '';

@@ -334,6 +334,19 @@ impl Verdict {
         };
         if self.level == Level::Normal {
             let ds: Vec<String> = self.drifts.iter().map(drift_text).collect();
+            // At `normal` a crossing is one the isolation cannot name yet, held back
+            // (crate::alarm::UNNAMED_RATIO): the data are not consistent with the healthy
+            // reference, and the reader must not be told they are.
+            if self.cusum_ratio >= 1.0 {
+                return format!(
+                    "NORMAL{at}, watching: a change the fault signatures cannot yet tell apart \
+                     (G/h {:.2}; drifts {}); it becomes an advisory once it names its mode, \
+                     doubles, or has stood a day; {}.",
+                    self.cusum_ratio,
+                    ds.join(", "),
+                    self.inspect
+                );
+            }
             return format!(
                 "NORMAL{at}: consistent with the healthy reference (drifts {}); {}.",
                 ds.join(", "),

@@ -1132,6 +1132,28 @@ mod tests {
     }
 
     #[test]
+    fn a_held_unnamed_change_is_not_reported_as_consistent_with_health() {
+        let model = test_model();
+        let mut m = Monitor::new(&model, Method::Pinn);
+        for x in samples(0.05, 3, None).iter() {
+            let _ = m.push(x);
+        }
+        let mut v = crate::verdict::Verdict::new(&model, m.state_ref());
+        assert_eq!(v.level, Level::Normal);
+        v.cusum_ratio = 0.4;
+        assert!(v.lines()[0].contains(": consistent with the healthy reference"));
+        // A crossing at `normal` is one held back unnamed (alarm::UNNAMED_RATIO).
+        v.cusum_ratio = 1.31;
+        let line = &v.lines()[0];
+        assert!(
+            line.contains(
+                ", watching: a change the fault signatures cannot yet tell apart (G/h 1.31;"
+            ) && !line.contains("consistent"),
+            "{line}"
+        );
+    }
+
+    #[test]
     fn a_voltage_offset_is_reported_as_the_voltage_sensor_within_a_few_stops() {
         let mut model = test_model();
         model.risk.advisory = 1e30;

@@ -285,8 +285,7 @@ impl AlarmState {
 /// with its evidence. On the field-like evaluation the modes named after an `unknown`
 /// crossing came within minutes to three hours, the right one in five of six; waiting for
 /// 1.25·h left four of its fifty-four first advisories `unknown`, 1.5·h two, 2·h none.
-/// Either way the engineer is not sent to a mode the data could not yet
-/// tell.
+/// Either way the engineer is not sent to a mode the data could not yet tell.
 pub const UNNAMED_RATIO: f64 = 2.0;
 
 /// The longest an unnamed change is held back (s of the data's clock): a day. A change too

@@ -49,7 +49,7 @@ use crate::alarm::Level;
 use crate::elevator::Elevator;
 use crate::exact;
 use crate::mode::{FaultMode, MACHINE_MODES, N_MODES};
-use crate::risk::{spd_inverse, RiskConfig, Rls, TripEvidence};
+use crate::risk::{mat_vec, spd_inverse, RiskConfig, Rls, TripEvidence};
 
 /// Trips per point of the drift history: the sequential decision's wander block, a few busy
 /// hours, short against the daily thermal cycle and long enough to separate the signatures.
@@ -158,9 +158,9 @@ impl DriftHistory {
                 drift: [0.0; N_MODES],
                 se: [0.0; N_MODES],
             };
+            let theta = mat_vec(&inv, &self.xtr);
             for m in 0..N_MODES {
-                let theta: f64 = (0..N_MODES).map(|j| inv[m][j] * self.xtr[j]).sum();
-                p.drift[m] = theta - cfg.healthy_coef[m];
+                p.drift[m] = theta[m] - cfg.healthy_coef[m];
                 p.se[m] = (cfg.prior_s2 * inv[m][m]).sqrt();
             }
             if p.drift.iter().chain(&p.se).all(|v| v.is_finite()) {

@@ -262,12 +262,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         });
     }
     cfg.validate()?;
-    anyhow::ensure!(
-        (sim::plant::MIN_EFFICIENCY..=1.0).contains(&args.efficiency),
-        "--efficiency {} must lie between {} and 1",
-        liftwatch::error::number(args.efficiency),
-        sim::plant::MIN_EFFICIENCY
-    );
+    if let Some(why) = sim::plant::efficiency_problem(args.efficiency) {
+        anyhow::bail!("--efficiency {why}");
+    }
     if args.drive_at_rest != DriveArg::Energised
         || args.load_cell != LoadCellArg::Platform
         || args.efficiency != 1.0

@@ -24,7 +24,7 @@ use crate::mode::FaultMode;
 use crate::model::TrainConfig;
 use crate::monitor::{Method, Monitor};
 use crate::rng::Rng;
-use crate::sim::plant::MIN_EFFICIENCY;
+use crate::sim::plant::efficiency_problem;
 use crate::sim::scenario::healthy_or_mode;
 use crate::sim::scenario::VOLTAGE_OFFSET_V;
 use crate::sim::{self, DriveAtRest, Ramp, Scenario, SensorFault, SimConfig, SimElevator};
@@ -149,13 +149,10 @@ pub fn cases(cfg: &SuiteConfig, fleet: &[FleetElevator]) -> Result<Vec<Case>> {
             why: format!("{} must be positive", cfg.severity_scale),
         });
     }
-    if !(MIN_EFFICIENCY..=1.0).contains(&cfg.efficiency) {
+    if let Some(why) = efficiency_problem(cfg.efficiency) {
         return Err(Error::InvalidConfig {
             field: "evaluate.efficiency",
-            why: format!(
-                "{} must lie between {MIN_EFFICIENCY} and 1",
-                crate::error::number(cfg.efficiency)
-            ),
+            why,
         });
     }
     let span = cfg.fault_days * DAY_S;

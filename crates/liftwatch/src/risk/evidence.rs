@@ -742,6 +742,16 @@ pub(crate) fn unpack(p: &[f64; 6]) -> [[f64; 3]; 3] {
     [[p[0], p[1], p[2]], [p[1], p[3], p[4]], [p[2], p[4], p[5]]]
 }
 
+/// The packed upper triangle of a symmetric 3×3 matrix, [`unpack`]'s inverse.
+pub(crate) fn pack(a: &[[f64; 3]; 3]) -> [f64; 6] {
+    [a[0][0], a[0][1], a[0][2], a[1][1], a[1][2], a[2][2]]
+}
+
+/// A·v for a 3×3 matrix A.
+pub(crate) fn mat_vec(a: &[[f64; 3]; 3], v: &[f64; 3]) -> [f64; 3] {
+    std::array::from_fn(|i| (0..3).map(|j| a[i][j] * v[j]).sum())
+}
+
 /// Inverse of a symmetric positive-definite 3×3 matrix by Cholesky; `None` when it is not.
 pub(crate) fn spd_inverse(p: &[f64; 6]) -> Option<[[f64; 3]; 3]> {
     let a = unpack(p);

@@ -72,7 +72,7 @@ pub mod sequential;
 mod tracker;
 
 pub(crate) use evidence::{
-    evidence_predictions, spd_inverse, trip_evidence_from, unpack, PACKED_DIAG,
+    evidence_predictions, mat_vec, spd_inverse, trip_evidence_from, unpack, PACKED_DIAG,
 };
 pub use evidence::{
     friction_reference, heating_reference, signature, trip_evidence, DriftScale, HeatEvidence,

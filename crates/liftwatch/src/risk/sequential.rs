@@ -93,7 +93,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::evidence::{spd_inverse, unpack, PACKED_DIAG};
+use super::evidence::{mat_vec, pack, spd_inverse, unpack, PACKED_DIAG};
 use super::{TripEvidence, N_MODES};
 use crate::exact;
 use crate::linalg::SquareMatrix;
@@ -240,6 +240,12 @@ impl SequentialConfig {
         self.wander[m] * self.wander[m] + self.reference_se[m] * self.reference_se[m]
     }
 
+    /// The largest of the three healthy noise factors s²_m: the conservative one for a
+    /// joint fit of the signatures.
+    pub fn largest_s2(&self) -> f64 {
+        self.s2.iter().fold(0.0f64, |a, &b| a.max(b))
+    }
+
     /// δ of mode `m`, size `j`, in coefficient units.
     pub fn delta(&self, m: usize, j: usize) -> f64 {
         SIZES[j] * (self.s2[m] / self.info[m]).sqrt()
@@ -293,11 +299,7 @@ impl SequentialConfig {
                 b[m] += t.xtr[m];
             }
         }
-        let inv = spd_inverse(&a)?;
-        let mut theta0 = [0.0; N_MODES];
-        for m in 0..N_MODES {
-            theta0[m] = (0..N_MODES).map(|j| inv[m][j] * b[j]).sum();
-        }
+        let theta0 = mat_vec(&spd_inverse(&a)?, &b);
         let mut cfg = SequentialConfig {
             theta0,
             s2: [0.0; N_MODES],
@@ -412,25 +414,18 @@ impl SequentialConfig {
     /// s²·W_b⁻¹ (s² the largest of the three), its positive semi-definite part
     /// ([`crate::linalg::psd_part3`]). `None` with fewer than [`MIN_WANDER_BLOCKS`] blocks.
     fn block_wander_cov(&self, trips: &[TripEvidence]) -> Option<[f64; 6]> {
-        let s2 = self.s2.iter().fold(0.0f64, |a, &b| a.max(b));
+        let s2 = self.largest_s2();
         let mut thetas: Vec<[f64; N_MODES]> = Vec::new();
         let mut noise = [[0.0; N_MODES]; N_MODES];
         for block in trips.chunks_exact(WANDER_BLOCK_TRIPS) {
-            let (mut w, mut sum) = ([0.0; 6], [0.0; N_MODES]);
+            let mut sums = Cusum::default();
             for t in block {
-                let (score, _) = self.score(t);
-                for k in 0..6 {
-                    w[k] += t.xtx[k];
-                }
-                for m in 0..N_MODES {
-                    sum[m] += score[m];
-                }
+                sums.add(&self.score(t).0, &t.xtx);
             }
-            let Some(inv) = spd_inverse(&w) else {
+            let Some(inv) = spd_inverse(&sums.w) else {
                 continue;
             };
-            let theta: [f64; N_MODES] =
-                std::array::from_fn(|m| (0..N_MODES).map(|j| inv[m][j] * sum[j]).sum());
+            let theta = mat_vec(&inv, &sums.s);
             if !theta.iter().all(|v| v.is_finite()) {
                 continue;
             }
@@ -457,8 +452,7 @@ impl SequentialConfig {
                 spread - noise[i][j] / n
             })
         });
-        let c = crate::linalg::psd_part3(excess);
-        Some([c[0][0], c[0][1], c[0][2], c[1][1], c[1][2], c[2][2]])
+        Some(pack(&crate::linalg::psd_part3(excess)))
     }
 
     /// A trip's score per mode: mean(x_m·r_U) − (mean(x·xᵀ)·θ0)_m.
@@ -880,7 +874,7 @@ fn isolate(cfg: &SequentialConfig, c: &Cusum) -> (FaultMode, FaultMode, [f64; N_
         .map(|sigma| Wander::new(&w, sigma, c));
     if let Some(wander) = &wander {
         for m in 0..N_MODES {
-            z2[m] = wander.window(cfg.s2[m]).alone(m);
+            z2[m] = wander.alone(cfg.s2[m], m);
         }
     }
     let z2_load = match &cfg.load {
@@ -932,7 +926,7 @@ fn brake_beyond_friction(
 ) -> f64 {
     let (b, f) = (FaultMode::Brake as usize, FaultMode::Friction as usize);
     if let Some(wander) = wander {
-        return wander.window(cfg.s2[b].max(cfg.s2[f])).beyond(b, f);
+        return wander.beyond(cfg.s2[b].max(cfg.s2[f]), b, f);
     }
     let det = w[b][b] * w[f][f] - w[b][f] * w[b][f];
     if !(det > 0.0 && w[f][f] > 0.0) {
@@ -953,22 +947,11 @@ fn brake_beyond_friction(
 /// A window's scores S = Σ score and information W = Σ x·xᵀ weighed against the healthy
 /// noise and wander together: cov(S) = V = s²·W + (B/n)·W·Σ_w·W over n trips (the noise
 /// grows with the trips; the wander with their square within one block of B, which no number
-/// of its trips averages away, and with the blocks over many, which wander independently;
-/// [`Wander`]). A hypothesis that
-/// the window's change lies along the columns A of W (the signatures it names) is tested by
-/// its generalised least squares: z² = gᵀ·M⁻¹·g with g = Aᵀ·V⁻¹·S and M = Aᵀ·V⁻¹·A. With
-/// Σ_w = 0 this is the noise-only z² of the isolation's notes.
-struct Window {
-    /// V⁻¹.
-    v_inv: [[f64; N_MODES]; N_MODES],
-    /// W.
-    w: [[f64; N_MODES]; N_MODES],
-    /// S.
-    s: [f64; N_MODES],
-}
-
-/// A window's W, S and the wander's share of cov(S), (B/n)·W·Σ_w·W, formed once for the
-/// isolation's four tests, which differ only in their noise factor s².
+/// of its trips averages away, and with the blocks over many, which wander independently).
+/// A hypothesis that the window's change lies along the columns A of W (the signatures it
+/// names) is tested by its generalised least squares: z² = gᵀ·M⁻¹·g with g = Aᵀ·V⁻¹·S and
+/// M = Aᵀ·V⁻¹·A. With Σ_w = 0 this is the noise-only z² of the isolation's notes. The
+/// wander's share is formed once for the isolation's four tests, which differ only in s².
 struct Wander {
     /// W.
     w: [[f64; N_MODES]; N_MODES],
@@ -995,30 +978,18 @@ impl Wander {
         Wander { w: *w, s: c.s, wsw }
     }
 
-    /// The window weighed against noise of factor `s2` and the wander.
-    fn window(&self, s2: f64) -> Window {
-        let v = |i: usize, j: usize| s2 * self.w[i][j] + self.wsw[i][j];
-        let packed = [v(0, 0), v(0, 1), v(0, 2), v(1, 1), v(1, 2), v(2, 2)];
-        Window {
-            v_inv: spd_inverse(&packed).unwrap_or([[0.0; N_MODES]; N_MODES]),
-            w: self.w,
-            s: self.s,
-        }
-    }
-}
-
-impl Window {
-    /// uᵀ·V⁻¹·v.
-    fn form(&self, u: &[f64; N_MODES], v: &[f64; N_MODES]) -> f64 {
-        (0..N_MODES)
-            .map(|i| u[i] * (0..N_MODES).map(|j| self.v_inv[i][j] * v[j]).sum::<f64>())
-            .sum()
+    /// V⁻¹ for noise of factor `s2`; zero where V is singular, which then passes no test.
+    fn v_inv(&self, s2: f64) -> [[f64; N_MODES]; N_MODES] {
+        let v =
+            std::array::from_fn(|i| std::array::from_fn(|j| s2 * self.w[i][j] + self.wsw[i][j]));
+        spd_inverse(&pack(&v)).unwrap_or([[0.0; N_MODES]; N_MODES])
     }
 
-    /// z² of signature `m` alone, 0 unless its coefficient rose.
-    fn alone(&self, m: usize) -> f64 {
+    /// z² of signature `m` alone against noise of factor `s2`, 0 unless its coefficient rose.
+    fn alone(&self, s2: f64, m: usize) -> f64 {
+        let v_inv = self.v_inv(s2);
         let a = self.w[m];
-        let (g, info) = (self.form(&a, &self.s), self.form(&a, &a));
+        let (g, info) = (form(&v_inv, &a, &self.s), form(&v_inv, &a, &a));
         if g > 0.0 && info > 0.0 {
             g * g / info
         } else {
@@ -1026,16 +997,18 @@ impl Window {
         }
     }
 
-    /// z² of signatures `b` and `f` jointly less z² of `f` alone, 0 unless the joint fit puts
-    /// a positive coefficient on `b` ([`brake_beyond_friction`]).
-    fn beyond(&self, b: usize, f: usize) -> f64 {
+    /// z² of signatures `b` and `f` jointly less z² of `f` alone, against noise of factor
+    /// `s2`; 0 unless the joint fit puts a positive coefficient on `b`
+    /// ([`brake_beyond_friction`]).
+    fn beyond(&self, s2: f64, b: usize, f: usize) -> f64 {
+        let v_inv = self.v_inv(s2);
         let (ab, af) = (self.w[b], self.w[f]);
         let (mbb, mbf, mff) = (
-            self.form(&ab, &ab),
-            self.form(&ab, &af),
-            self.form(&af, &af),
+            form(&v_inv, &ab, &ab),
+            form(&v_inv, &ab, &af),
+            form(&v_inv, &af, &af),
         );
-        let (gb, gf) = (self.form(&ab, &self.s), self.form(&af, &self.s));
+        let (gb, gf) = (form(&v_inv, &ab, &self.s), form(&v_inv, &af, &self.s));
         let det = mbb * mff - mbf * mbf;
         if !(det > 0.0 && mff > 0.0) {
             return 0.0;
@@ -1047,6 +1020,13 @@ impl Window {
         let rub = (mbb * gf - mbf * gb) / det;
         drag * gb + rub * gf - gf.max(0.0).powi(2) / mff
     }
+}
+
+/// uᵀ·A·v for a 3×3 matrix A.
+fn form(a: &[[f64; N_MODES]; N_MODES], u: &[f64; N_MODES], v: &[f64; N_MODES]) -> f64 {
+    (0..N_MODES)
+        .map(|i| u[i] * (0..N_MODES).map(|j| a[i][j] * v[j]).sum::<f64>())
+        .sum()
 }
 
 /// The three drifts of a window under the mode its isolation named (`machine_mode`): that
@@ -1074,7 +1054,7 @@ fn drifts(
 /// fit), the healthy wander of each coefficient and θ0's own error
 /// ([`SequentialConfig::floor_var`]).
 fn window_drift(cfg: &SequentialConfig, c: &Cusum) -> ([f64; N_MODES], [f64; N_MODES]) {
-    let s2 = cfg.s2.iter().fold(0.0f64, |a, &b| a.max(b));
+    let s2 = cfg.largest_s2();
     let se = |var: f64, m: usize| (s2 * var + cfg.floor_var(m)).sqrt();
     if let Some(now) = c.slope.as_ref().and_then(|sl| line_now(c, sl)) {
         return (now.0, std::array::from_fn(|m| se(now.1[m], m)));
@@ -1082,8 +1062,10 @@ fn window_drift(cfg: &SequentialConfig, c: &Cusum) -> ([f64; N_MODES], [f64; N_M
     let Some(inv) = spd_inverse(&c.w) else {
         return ([f64::NAN; N_MODES], [f64::NAN; N_MODES]);
     };
-    let drift = std::array::from_fn(|m| (0..N_MODES).map(|j| inv[m][j] * c.s[j]).sum());
-    (drift, std::array::from_fn(|m| se(inv[m][m], m)))
+    (
+        mat_vec(&inv, &c.s),
+        std::array::from_fn(|m| se(inv[m][m], m)),
+    )
 }
 
 /// The drift of signature `m` alone on a window (its line's level at the last trip, or the
@@ -1139,7 +1121,7 @@ fn remainder_drifts(cfg: &SequentialConfig, c: &Cusum, m: usize) -> Option<[(usi
     }
     let di = (w[j][j] * ri - w[i][j] * rj) / det;
     let dj = (w[i][i] * rj - w[i][j] * ri) / det;
-    let s2 = cfg.s2.iter().fold(0.0f64, |a, &b| a.max(b));
+    let s2 = cfg.largest_s2();
     let se = |var: f64, k: usize| (s2 * var + cfg.floor_var(k)).sqrt();
     Some([(i, di, se(w[j][j] / det, i)), (j, dj, se(w[i][i] / det, j))])
 }
@@ -1197,22 +1179,20 @@ mod tests {
     const WANDER_DIR: [f64; N_MODES] = [1.0, -1.0, 0.0];
 
     fn matvec(p: &[f64; 6], v: &[f64; N_MODES]) -> [f64; N_MODES] {
-        let a = unpack(p);
-        std::array::from_fn(|i| (0..N_MODES).map(|j| a[i][j] * v[j]).sum())
+        mat_vec(&unpack(p), v)
     }
 
     /// A trip whose coefficients stand at `theta`, with noise of variance s²·x·xᵀ on its
     /// scores (s² = 1).
     fn trip(start: f64, theta: &[f64; N_MODES], rng: &mut Rng) -> TripEvidence {
-        let a = unpack(&XTX);
         // Cholesky factor of x·xᵀ, for noise with that covariance.
-        let mut l = [[0.0; N_MODES]; N_MODES];
-        for i in 0..N_MODES {
-            for j in 0..=i {
-                let s = a[i][j] - (0..j).map(|k| l[i][k] * l[j][k]).sum::<f64>();
-                l[i][j] = if i == j { s.sqrt() } else { s / l[j][j] };
+        let mut a = crate::linalg::SquareMatrix::zeros(N_MODES);
+        for (i, row) in unpack(&XTX).iter().enumerate() {
+            for (j, v) in row.iter().enumerate() {
+                *a.at(i, j) = *v;
             }
         }
+        let l = a.cholesky().expect("x·xᵀ is positive definite");
         let z = [rng.normal(), rng.normal(), rng.normal()];
         let mean = matvec(&XTX, theta);
         TripEvidence {
@@ -1223,7 +1203,9 @@ mod tests {
             mean_e_u: 0.0,
             mean_e_f: 0.0,
             xtx: XTX,
-            xtr: std::array::from_fn(|i| mean[i] + (0..=i).map(|k| l[i][k] * z[k]).sum::<f64>()),
+            xtr: std::array::from_fn(|i| {
+                mean[i] + (0..=i).map(|k| l.get(i, k) * z[k]).sum::<f64>()
+            }),
             rr: 1.0,
             plausible: true,
             thermal: Default::default(),
@@ -1289,14 +1271,7 @@ mod tests {
         };
         let sd = 0.3;
         let sigma = WANDER_DIR.map(|d| d * sd);
-        let wander_cov = [
-            sigma[0] * sigma[0],
-            sigma[0] * sigma[1],
-            sigma[0] * sigma[2],
-            sigma[1] * sigma[1],
-            sigma[1] * sigma[2],
-            sigma[2] * sigma[2],
-        ];
+        let wander_cov = pack(&sigma.map(|a| sigma.map(|b| a * b)));
         // Three blocks' worth of trips, moved by two of the wander's standard deviations along
         // its direction: on the trips' noise alone that is a clear motor rise.
         let excursion = window(150, &WANDER_DIR.map(|d| 2.0 * sd * d));

@@ -216,15 +216,8 @@ impl SimConfig {
             if p.floor_positions_m.len() < 2 {
                 return bad("plant", "needs at least two landings".into());
             }
-            if !(plant::MIN_EFFICIENCY..=1.0).contains(&p.efficiency) {
-                return bad(
-                    "plant.efficiency",
-                    format!(
-                        "{} must lie between {} and 1",
-                        crate::error::number(p.efficiency),
-                        plant::MIN_EFFICIENCY
-                    ),
-                );
+            if let Some(why) = plant::efficiency_problem(p.efficiency) {
+                return bad("plant.efficiency", why);
             }
         }
         for o in &self.outages {

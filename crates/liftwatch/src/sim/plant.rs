@@ -163,6 +163,17 @@ fn unit_gain() -> f64 {
 /// itself, and no traction machine of the contract's range runs that lossy.
 pub const MIN_EFFICIENCY: f64 = 0.5;
 
+/// Why a transmission efficiency `eta` is refused; `None` when it lies between
+/// [`MIN_EFFICIENCY`] and 1.
+pub fn efficiency_problem(eta: f64) -> Option<String> {
+    (!(MIN_EFFICIENCY..=1.0).contains(&eta)).then(|| {
+        format!(
+            "{} must lie between {MIN_EFFICIENCY} and 1",
+            crate::error::number(eta)
+        )
+    })
+}
+
 /// The efficiency of a transmission without losses.
 fn lossless() -> f64 {
     1.0

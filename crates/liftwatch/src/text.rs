@@ -12,7 +12,7 @@
 //! ```
 //!
 //! Both exist because the monitor's process spends most of its time here: a 30-day aligned
-//! file is 18 M numbers in and 28 M out.
+//! file is 18 M numbers in and 28 M out. Beside them, [`sig3`]: a number in a sentence.
 
 use std::io::Write as _;
 
@@ -265,6 +265,23 @@ pub fn parse_decimal(s: &[u8]) -> Option<f64> {
 /// Reads a float as `str::parse::<f64>` does, plain decimals through [`parse_decimal`].
 pub fn parse_f64(s: &[u8]) -> Option<f64> {
     parse_decimal(s).or_else(|| std::str::from_utf8(s).ok()?.parse().ok())
+}
+
+/// A number for a sentence: three significant digits, plainly (an exponent only outside
+/// 10⁻³ to 10⁶), `0` for zero and `n/a` for a value that is not a number.
+pub fn sig3(v: f64) -> String {
+    if !v.is_finite() {
+        return "n/a".into();
+    }
+    let a = v.abs();
+    if a == 0.0 {
+        "0".into()
+    } else if !(1e-3..1e6).contains(&a) {
+        format!("{v:.2e}")
+    } else {
+        let d = (2 - a.log10().floor() as i32).max(0) as usize;
+        format!("{v:.d$}")
+    }
 }
 
 #[cfg(test)]

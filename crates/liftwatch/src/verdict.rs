@@ -34,6 +34,7 @@ use crate::mode::{FaultMode, MACHINE_MODES, N_MODES};
 use crate::monitor::MonitorState;
 use crate::operation::{Outage, DOOR_MIN_CYCLES, DOOR_MIN_DAYS};
 use crate::risk::DriftScale;
+use crate::text::sig3;
 
 /// Hours of healthy training below which the verdict says the model is short of data: the
 /// calibration's own bound, [`crate::calibrate::ENOUGH_TRAINING_HOURS`].
@@ -409,9 +410,9 @@ impl Verdict {
         let [r, adv, alm] = self.risk;
         let mut s = format!(
             "risk R = {} (advisory level {}, alarm level {})",
-            sig(r),
-            sig(adv),
-            sig(alm)
+            sig3(r),
+            sig3(adv),
+            sig3(alm)
         );
         if self.cusum_ratio >= 0.5 {
             s.push_str(&format!(
@@ -505,22 +506,6 @@ fn mode_forecast_text(f: &ModeForecast, now: f64) -> String {
         })
         .collect();
     format!("at this rate ({rate}): {}.", items.join("; "))
-}
-
-/// Three significant digits, plainly.
-fn sig(v: f64) -> String {
-    if !v.is_finite() {
-        return "n/a".into();
-    }
-    let a = v.abs();
-    if a == 0.0 {
-        "0".into()
-    } else if !(1e-3..1e6).contains(&a) {
-        format!("{v:.2e}")
-    } else {
-        let d = (2 - a.log10().floor() as i32).max(0) as usize;
-        format!("{v:.d$}")
-    }
 }
 
 /// What the model cannot promise, from its fit summary and calibration.

@@ -162,6 +162,7 @@ fn json_summary(
             let v = serde_json::json!({
                 "value": finite(r.value),
                 "std_error": r.std_error.and_then(finite),
+                "quarters_se": r.quarters_se.and_then(finite),
                 "unit": r.unit,
                 "decided_by": if r.determined { "data" } else { "prior" },
                 "corrected": r.corrected.and_then(finite),
@@ -211,22 +212,26 @@ pub fn summary(m: &fit::FittedModel, trips: usize, seconds: f64) -> String {
     );
     let _ = writeln!(
         s,
-        "{:<27} {:>12} {:>11} {:>12}  {:<6} decided by",
-        "parameter", "value", "std error", "corrected", "unit"
+        "{:<27} {:>12} {:>11} {:>11} {:>12}  {:<6} decided by",
+        "parameter", "value", "std error", "quarters", "corrected", "unit"
     );
     for r in &f.parameters {
         let se = r
             .std_error
             .map_or_else(|| "n/a".to_string(), |v| format!("{v:.5}"));
+        let quarters = r
+            .quarters_se
+            .map_or_else(|| "-".to_string(), |v| format!("{v:.5}"));
         let corrected = r
             .corrected
             .map_or_else(|| "-".to_string(), |v| format!("{v:.5}"));
         let _ = writeln!(
             s,
-            "{:<27} {:>12.5} {:>11} {:>12}  {:<6} {}",
+            "{:<27} {:>12.5} {:>11} {:>11} {:>12}  {:<6} {}",
             r.name,
             r.value,
             se,
+            quarters,
             corrected,
             r.unit,
             if r.determined {
@@ -234,6 +239,12 @@ pub fn summary(m: &fit::FittedModel, trips: usize, seconds: f64) -> String {
             } else {
                 "prior (weakly identifiable)"
             }
+        );
+    }
+    if f.parameters.iter().any(|r| r.quarters_se.is_some()) {
+        let _ = writeln!(
+            s,
+            "quarters: the standard error from the spread of the values fitted on each quarter of the training alone; where it is the wider, the values moved through the training more than its noise explains (winding temperature, traffic, sensor clocks sliding in phase), and it is the honest error"
         );
     }
     if f.speed_noise_mps > 0.0 {

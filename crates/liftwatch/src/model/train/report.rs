@@ -54,6 +54,13 @@ pub struct ParamReport {
     /// model predicts with. `None` when no speed noise was measured.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub corrected: Option<f64>,
+    /// Standard error from the spread of stage 1's θ fitted on each quarter of the training's
+    /// motion alone (batch means, sd/√4): what the data determine when their residuals are
+    /// correlated in time or θ moves through the training, which `std_error` does not see.
+    /// `None` for combinations and parameters the prior decides, in models fitted before it
+    /// was kept, and where a quarter cannot be fitted alone.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub quarters_se: Option<f64>,
 }
 
 /// Why stage 2 stopped, and how far its loss still fell at the end.
@@ -183,6 +190,7 @@ pub(super) fn param_reports(
                 prior_sd: Some(prior.sd[k]),
                 determined,
                 corrected: None,
+                quarters_se: None,
             }
         })
         .collect();
@@ -244,6 +252,7 @@ fn without_errors(p: &PhysParams, prior: &Prior) -> Vec<ParamReport> {
             prior_sd: Some(prior.sd[k]),
             determined: false,
             corrected: None,
+            quarters_se: None,
         })
         .collect()
 }
@@ -260,6 +269,7 @@ fn combinations(p: &PhysParams, cov: &SquareMatrix) -> [ParamReport; 2] {
             prior_sd: None,
             determined: se < DETERMINED_COMBINATION * value.abs(),
             corrected: None,
+            quarters_se: None,
         }
     };
     [

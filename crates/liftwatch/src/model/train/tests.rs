@@ -365,3 +365,60 @@ fn speeds_whose_differences_overflow_give_no_speed_noise_not_nan() {
     }
     assert_eq!(speed_noise_of(&rows), 0.0);
 }
+
+#[test]
+fn the_quarters_error_agrees_with_the_standard_error_until_theta_moves_through_the_training() {
+    // Paper-exact data with independent noise: the spread of the four quarters' θ is what
+    // the standard error says (within the 3 degrees of freedom of four parts).
+    let e = Elevator::new(1000.0, 1.75, 26);
+    let t = truth();
+    let cfg = TrainConfig {
+        epochs: 50,
+        log_every: 0,
+        ..TrainConfig::default()
+    };
+    let errors = |rows: &[FeatureRow]| {
+        let obs = observations(rows, e.floors, 0.1).unwrap();
+        let fit = train(&obs, &e, &cfg, &mut |_| {}).unwrap();
+        let r = fit
+            .summary
+            .parameters
+            .iter()
+            .find(|r| r.name == "m0")
+            .cloned()
+            .unwrap();
+        (
+            r.std_error.unwrap(),
+            r.quarters_se.expect("four quarters fit"),
+        )
+    };
+    let steady = paper_exact(&t, &e, 2.0, 480, 5);
+    let (se, quarters) = errors(&steady);
+    assert!(
+        quarters > se / 3.0 && quarters < 3.0 * se,
+        "independent noise: m0 ± {se} against {quarters} from the quarters"
+    );
+    // The same car whose apparent inertia moves by 600 kg halfway through (as a sensor's
+    // sampling phase sliding against another's makes it): the standard error does not see
+    // it, the quarters do.
+    let mut moved = paper_exact(&t, &e, 2.0, 240, 5);
+    let later = PhysParams {
+        m0: t.m0 + 600.0,
+        ..t
+    };
+    let shift = moved.last().map_or(0.0, |r| r.time + 1.0);
+    moved.extend(
+        paper_exact(&later, &e, 2.0, 240, 6)
+            .into_iter()
+            .map(|mut r| {
+                r.time += shift;
+                r.trip = r.trip.map(|k| k + 240);
+                r
+            }),
+    );
+    let (se, quarters) = errors(&moved);
+    assert!(
+        quarters > 3.0 * se,
+        "θ moved: m0 ± {se} against {quarters} from the quarters"
+    );
+}

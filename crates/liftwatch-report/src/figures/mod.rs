@@ -24,6 +24,9 @@ mod usage;
 use liftwatch::features::{FeatureRow, Trip};
 use liftwatch::ingest::time::{instant_text, is_calendar};
 use liftwatch::residual::Residuals;
+/// A number with three significant digits, plainly written (the one writer of numbers in a
+/// sentence, the verdict's and the fit's too).
+use liftwatch::text::sig3 as num;
 use plotters::style::RGBColor;
 
 use crate::plot::{decimate, Axis};
@@ -137,22 +140,6 @@ fn span_text(s: f64) -> String {
         format!("{:.1} h", s / 3600.0)
     } else {
         format!("{:.2} days", s / 86400.0)
-    }
-}
-
-/// A number with three significant digits, plainly written.
-fn num(v: f64) -> String {
-    if !v.is_finite() {
-        return "n/a".into();
-    }
-    let a = v.abs();
-    if a == 0.0 {
-        "0".into()
-    } else if !(1e-3..1e5).contains(&a) {
-        format!("{v:.2e}")
-    } else {
-        let d = (2 - a.log10().floor() as i32).max(0) as usize;
-        format!("{v:.d$}")
     }
 }
 

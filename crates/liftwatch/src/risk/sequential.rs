@@ -1213,6 +1213,20 @@ mod tests {
         mat_vec(&unpack(p), v)
     }
 
+    /// A decision of unit noise, information and level 0, without wander or reference error.
+    fn unit_config() -> SequentialConfig {
+        SequentialConfig {
+            theta0: [0.0; N_MODES],
+            s2: [1.0; N_MODES],
+            info: [1.0; N_MODES],
+            h: [[10.0; N_SIZES]; N_MODES],
+            wander: [0.0; N_MODES],
+            reference_se: [0.0; N_MODES],
+            load: None,
+            wander_cov: None,
+        }
+    }
+
     /// A trip whose coefficients stand at `theta`, with noise of variance s²·x·xᵀ on its
     /// scores (s² = 1).
     fn trip(start: f64, theta: &[f64; N_MODES], rng: &mut Rng) -> TripEvidence {
@@ -1300,16 +1314,7 @@ mod tests {
 
     #[test]
     fn a_window_that_moved_as_the_healthy_wander_does_names_no_mode() {
-        let mut cfg = SequentialConfig {
-            theta0: [0.0; N_MODES],
-            s2: [1.0; N_MODES],
-            info: [1.0; N_MODES],
-            h: [[10.0; N_SIZES]; N_MODES],
-            wander: [0.0; N_MODES],
-            reference_se: [0.0; N_MODES],
-            load: None,
-            wander_cov: None,
-        };
+        let mut cfg = unit_config();
         let sd = 0.3;
         let sigma = WANDER_DIR.map(|d| d * sd);
         let wander_cov = pack(&sigma.map(|a| sigma.map(|b| a * b)));
@@ -1338,16 +1343,7 @@ mod tests {
         // collinear (0.95) and the window's scores carry a small opposite wobble along them
         // (as the noise does): fitted jointly the two read about ±0.4, large and opposite;
         // alone on what the motor leaves, each reads its own ±0.02.
-        let cfg = SequentialConfig {
-            theta0: [0.0; N_MODES],
-            s2: [1.0; N_MODES],
-            info: [1.0; N_MODES],
-            h: [[10.0; N_SIZES]; N_MODES],
-            wander: [0.0; N_MODES],
-            reference_se: [0.0; N_MODES],
-            load: None,
-            wander_cov: None,
-        };
+        let cfg = unit_config();
         let xtx = [1.0, 0.3, 0.3, 1.0, 0.95, 1.0];
         let (b, f) = (FaultMode::Brake as usize, FaultMode::Friction as usize);
         let mut c = Cusum::default();
@@ -1378,16 +1374,7 @@ mod tests {
         // 0.16). Read jointly, they split the rise into large opposite drifts; read under the
         // signature the window leans to, it is one drift and the others are what it leaves.
         let xtx = [1.0, 0.785, 0.157, 1.0, 0.666, 1.0];
-        let cfg = SequentialConfig {
-            theta0: [0.0; N_MODES],
-            s2: [1.0; N_MODES],
-            info: [1.0; N_MODES],
-            h: [[10.0; N_SIZES]; N_MODES],
-            wander: [0.0; N_MODES],
-            reference_se: [0.0; N_MODES],
-            load: None,
-            wander_cov: None,
-        };
+        let cfg = unit_config();
         let friction = FaultMode::Friction as usize;
         let mut rise = [0.0; N_MODES];
         rise[friction] = 0.8;

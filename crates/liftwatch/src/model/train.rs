@@ -691,8 +691,17 @@ fn set_quarters_se(reports: &mut [ParamReport], parts: &[[f64; N_PHYS]]) {
         };
         let mean = parts.iter().map(|p| p[i]).sum::<f64>() / k;
         let var = parts.iter().map(|p| (p[i] - mean).powi(2)).sum::<f64>() / (k - 1.0);
-        r.quarters_se = Some((var / k).sqrt()).filter(|v| v.is_finite());
+        r.quarters_se = Some(four_digits((var / k).sqrt())).filter(|v| v.is_finite());
     }
+}
+
+/// `v` to four significant digits (through Rust's own decimal formatting, no C library).
+/// A spread of four values is itself uncertain by about 40 %, so no more digits mean
+/// anything; and the quarters' fits, unlike the whole training's, end a few units of the
+/// last place apart between the glibc and the static musl builds (their exp and log differ
+/// there), which four digits do not show: the two builds write the same model file.
+fn four_digits(v: f64) -> f64 {
+    format!("{v:.3e}").parse().unwrap_or(v)
 }
 
 /// θ with the speed reading's noise σ_v taken out (errors in variables, the notes of

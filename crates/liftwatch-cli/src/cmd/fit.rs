@@ -215,16 +215,14 @@ pub fn summary(m: &fit::FittedModel, trips: usize, seconds: f64) -> String {
         "{:<27} {:>12} {:>11} {:>11} {:>12}  {:<6} decided by",
         "parameter", "value", "std error", "quarters", "corrected", "unit"
     );
+    let cell =
+        |v: Option<f64>, none: &str| v.map_or_else(|| none.to_string(), |v| format!("{v:.5}"));
     for r in &f.parameters {
-        let se = r
-            .std_error
-            .map_or_else(|| "n/a".to_string(), |v| format!("{v:.5}"));
-        let quarters = r
-            .quarters_se
-            .map_or_else(|| "-".to_string(), |v| format!("{v:.5}"));
-        let corrected = r
-            .corrected
-            .map_or_else(|| "-".to_string(), |v| format!("{v:.5}"));
+        let (se, quarters, corrected) = (
+            cell(r.std_error, "n/a"),
+            cell(r.quarters_se, "-"),
+            cell(r.corrected, "-"),
+        );
         let _ = writeln!(
             s,
             "{:<27} {:>12.5} {:>11} {:>11} {:>12}  {:<6} {}",

@@ -1105,7 +1105,7 @@ fn window_drift(cfg: &SequentialConfig, c: &Cusum) -> ([f64; N_MODES], [f64; N_M
 fn alone_drift(cfg: &SequentialConfig, c: &Cusum, m: usize) -> (f64, f64) {
     let k = PACKED_DIAG[m];
     let (a, s) = (c.w[k], c.s[m]);
-    let se = |var: f64| (cfg.s2[m] * var + cfg.floor_var(m)).sqrt();
+    let se = |var: f64| alone_se(cfg, m, var);
     if let Some(sl) = c.slope.filter(SlopeSums::spans_line) {
         let (b, d, t) = (sl.w1[k], sl.w2[k], sl.tau_end);
         let det = a * d - b * b;
@@ -1148,13 +1148,16 @@ fn remainder_drifts(cfg: &SequentialConfig, c: &Cusum, m: usize) -> Option<[(usi
     }
     let alone = |k: usize| {
         let rest = c.s[k] - w[k][m] * own;
-        (
-            k,
-            rest / w[k][k],
-            (cfg.s2[k] / w[k][k] + cfg.floor_var(k)).sqrt(),
-        )
+        (k, rest / w[k][k], alone_se(cfg, k, 1.0 / w[k][k]))
     };
     Some([alone(i), alone(j)])
+}
+
+/// The standard error of signature `m`'s drift read alone, its variance per unit s² being
+/// `var`: the mode's own healthy noise, its wander and θ0's error
+/// ([`SequentialConfig::floor_var`]).
+fn alone_se(cfg: &SequentialConfig, m: usize, var: f64) -> f64 {
+    (cfg.s2[m] * var + cfg.floor_var(m)).sqrt()
 }
 
 /// A window whose line needs at least this many days between its first and last trip: a

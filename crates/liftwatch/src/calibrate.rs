@@ -42,7 +42,7 @@ use crate::model::physics::{PhysParams, N_PHYS};
 use crate::model::train::{interpolation_weight_of, INTERPOLATION_NOISE_SHARE};
 use crate::model::HybridModel;
 use crate::residual::PredictionCache;
-use crate::risk::sequential::{DAY_S, N_SIZES};
+use crate::risk::sequential::{DAY_S, GLR_LENGTHS, N_SIZES};
 use crate::risk::{
     excess, friction_reference, signature, unpack, PreparedTrip, RiskConfig, RiskTracker, Rls,
     SequentialConfig, TripEvidence, Winding, HEAT_LAG, MAX_HEATING, MAX_WINDING_TAU_S,
@@ -370,10 +370,12 @@ pub fn calibrate(
         hours.ambient = UNSEEN_AMBIENT_SWING;
     }
     let mut rng = Rng::new(settings.seed);
-    let (max_r, max_modes, max_g) =
+    let (max_r, max_modes, max_g, max_glr) =
         bootstrap_maxima(&cfg, &trips, settings.block_s, total, &mut rng, &hours);
     if let Some(seq) = &mut cfg.sequential {
-        let statistics = (N_MODES * N_SIZES) as f64;
+        // Floors for a bootstrap too short to show the tail: a CUSUM's G exceeds h about
+        // once in e^h trips per statistic, a one-sided z² beyond h once in e^(h/2) windows.
+        let statistics = (N_MODES * (N_SIZES + GLR_LENGTHS.len())) as f64;
         let target = settings.target_false_advisories_per_year.max(1e-3);
         let floor = (statistics * trips_per_year / target).ln().max(1.0);
         for m in 0..N_MODES {
@@ -381,6 +383,7 @@ pub fn calibrate(
                 seq.h[m][j] = max_g[m][j].max(floor);
             }
         }
+        seq.glr_h = Some(std::array::from_fn(|m| max_glr[m].max(2.0 * floor)));
     }
     let floor = cfg.advisory_floor();
     cfg.advisory = max_r.max(floor);
@@ -1236,22 +1239,30 @@ fn bootstrap_maxima(
     total: u64,
     rng: &mut Rng,
     hours: &HourWander,
-) -> (f64, [f64; N_MODES], [[f64; N_SIZES]; N_MODES]) {
+) -> (
+    f64,
+    [f64; N_MODES],
+    [[f64; N_SIZES]; N_MODES],
+    [f64; N_MODES],
+) {
     let mut tracker = RiskTracker::new(cfg);
     let (mut max_r, mut max_m) = (0.0f64, [0.0f64; N_MODES]);
     let mut max_g = [[0.0f64; N_SIZES]; N_MODES];
+    let mut max_glr = [0.0f64; N_MODES];
     bootstrap(cfg, trips, block_s, total, rng, hours, |t, offset| {
         let a = tracker.push_levels(cfg, t, offset);
         max_r = max_r.max(a.risk);
         let g = tracker.cusum_g();
+        let z2 = tracker.glr_z2();
         for m in 0..N_MODES {
+            max_glr[m] = max_glr[m].max(z2[m]);
             max_m[m] = max_m[m].max(a.risk_modes[m]);
             for j in 0..N_SIZES {
                 max_g[m][j] = max_g[m][j].max(g[m][j]);
             }
         }
     });
-    (max_r, max_m, max_g)
+    (max_r, max_m, max_g, max_glr)
 }
 
 /// Advisory episodes (with the hysteresis of [`crate::alarm`]) over a bootstrap run.
@@ -1750,6 +1761,8 @@ mod tests {
                 assert_eq!(a.decision.ratio.to_bits(), l.ratio.to_bits());
                 let g = |t: &RiskTracker| t.cusum_g().map(|row| row.map(f64::to_bits));
                 assert_eq!(g(&full), g(&levels));
+                let z2 = |t: &RiskTracker| t.glr_z2().map(f64::to_bits);
+                assert_eq!(z2(&full), z2(&levels));
             }
             assert!(crossed, "the step never crossed a CUSUM");
         }

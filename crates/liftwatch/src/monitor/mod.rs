@@ -779,9 +779,12 @@ impl Monitor {
             witnessed = w;
             &witnessed
         };
-        let seq = st
-            .alarm
-            .raising_ratio(x.time, a.decision.ratio, diagnose(a, cfg));
+        let seq = st.alarm.raising_ratio(
+            x.time,
+            a.decision.ratio,
+            diagnose(a, cfg),
+            a.decision.lead_glr && a.decision.cusum_ratio < 1.0,
+        );
         st.alarm.update_machine(a.risk, seq, cfg);
         let level = st.alarm.level();
         let mut event = None;

@@ -16,7 +16,14 @@
 //!   G ← max(0, G + ν·u − ν²/2)                     log-likelihood ratio of a drift δ along x_m
 //!   a CUSUM at 0 forgets its window; above 0 it sums the window's score (3) and x·xᵀ (6)
 //! crossing: G ≥ h_mj                                  h calibrated (crate::calibrate)
-//! ratio   = max over m, j of G_mj/h_mj                ≥ 1: the decision says "changed"
+//! beside them, per mode, the window-limited GLR of a change of unknown size (Lai, 1995):
+//!   windows of the last n ∈ {20, 30, 50} trips holding the information of 20 mean trips,
+//!   S = Σ clip(score, ±3 sd), z² = S²/(Σ v + f_n·W²), S > 0
+//!                                                   v = a·info + b: a trip's own variance,
+//!                                                   f_n: the wander between windows of n
+//!   crossing: max over n of z² ≥ h_m                  h_m calibrated with the CUSUMs'
+//!   (it raises an advisory once it has stood an hour: crate::alarm::GLR_HOLD_S)
+//! ratio   = max over m, j of G_mj/h_mj and z²_m/h_m  ≥ 1: the decision says "changed"
 //! mode    = argmax_m z_m on the crossing window, one signature alone, against the noise and
 //!           the healthy wander together (V = s²_m·W + (B/n)·W·Σ_w·W, n the window's trips,
 //!           B = WANDER_BLOCK_TRIPS, Σ_w the joint wander of the fit's blocks):
@@ -83,6 +90,10 @@
 //! trips carries B/n of one block's wander (all of it within one block): a long window is
 //! decided by its noise again.
 //!
+//! Why a GLR beside the CUSUMs: see [`glr`]; in short, the CUSUMs' thresholds are set by
+//! healthy hours that wander together, and where that wander is a sizeable share of a trip's
+//! error they wait for as much evidence on a large step as on a small one.
+//!
 //! Isolation is by the likelihood of each signature alone: a friction rise also moves the
 //! motor score (the signatures are not orthogonal), but less than it moves its own. (Isolating
 //! on the joint drifts instead named fewer modes at the first advisory on the evaluation:
@@ -116,6 +127,9 @@ pub const N_SIZES: usize = 2;
 /// trip's evidence is bounded the way a Huber estimator bounds it, so a few odd trips (a
 /// re-levelling, a passenger jumping, a dropout at a trip's edge) cannot outweigh the many a
 /// real degradation gives. A change of up to 3 standard errors per trip passes unclipped.
+/// The GLR ([`glr`]) clips each trip's score to the same bound of its own sd: at twice the
+/// bound, runs of five to ten odd trips on a busy morning (5 to 17 standard errors each)
+/// crossed it on healthy days.
 pub const CLIP: f64 = 3.0;
 
 pub use crate::stats::gaussian_llr;
@@ -164,6 +178,21 @@ pub struct SequentialConfig {
     /// `None` in models fitted before it was kept, whose isolation weighs the trips' noise alone.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub wander_cov: Option<[f64; 6]>,
+    /// Thresholds of the window-limited GLR per mode (z², [`Sequential::glr`]), calibrated
+    /// with the CUSUMs' by the same bootstrap; `None` in models fitted before it was kept,
+    /// which decide by the CUSUMs alone.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub glr_h: Option<[f64; N_MODES]>,
+    /// A trip's healthy score variance as the GLR weighs it, per mode: a·info + b
+    /// ([`SequentialConfig::trip_variance`]); `None` in models fitted before it was kept,
+    /// whose GLR takes s²·info.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub trip_var: Option<[[f64; 2]; N_MODES]>,
+    /// The healthy wander of each signature's level between windows of each of the GLR's
+    /// lengths, beyond their noise (sd, coefficient units; [`SequentialConfig::glr_wander`]);
+    /// `None` in models fitted before it was kept, whose GLR takes [`SequentialConfig::wander`].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub glr_wander: Option<[[f64; GLR_N]; N_MODES]>,
 }
 
 /// The healthy level and noise of the load-cell zero's score (the isolation's fourth
@@ -232,6 +261,11 @@ pub const WANDER_BLOCK_TRIPS: usize = 50;
 /// isolate on the trips' noise alone, as models before Σ_w did.
 pub const MIN_WANDER_BLOCKS: usize = 10;
 
+/// Passes of the reweighted least squares of a trip's variance
+/// ([`SequentialConfig::trip_variance`]): the weights come from the previous pass's fit, and
+/// a fit of two coefficients settles in a few.
+const TRIP_VARIANCE_PASSES: usize = 4;
+
 impl SequentialConfig {
     /// What no number of a window's trips averages away from its drift's variance, mode `m`
     /// (coefficient units²): the healthy wander between blocks of trips, and the error of θ0
@@ -279,6 +313,9 @@ impl SequentialConfig {
                 check("risk.sequential.wander_cov", *v, bound, 1e6)?;
             }
         }
+        for h in self.glr_h.iter().flatten() {
+            check("risk.sequential.glr_h", *h, 1e-3, 1e9)?;
+        }
         if let Some(l) = &self.load {
             check("risk.sequential.load.theta", l.theta, -1e3, 1e3)?;
             check("risk.sequential.load.s2", l.s2, 1e-300, 1e30)?;
@@ -310,6 +347,9 @@ impl SequentialConfig {
             reference_se: [0.0; N_MODES],
             load: LoadReference::measure(&theta0, trips),
             wander_cov: None,
+            glr_h: Some([h; N_MODES]),
+            trip_var: None,
+            glr_wander: None,
         };
         let (mut ss, mut si) = ([0.0; N_MODES], [0.0; N_MODES]);
         for t in trips {
@@ -327,6 +367,8 @@ impl SequentialConfig {
             cfg.s2[m] = ss[m] / si[m];
             cfg.info[m] = si[m] / n;
         }
+        cfg.trip_var = Some(cfg.trip_variance(trips));
+        cfg.glr_wander = Some(cfg.glr_wander(trips));
         cfg.wander = cfg.block_wander(trips);
         cfg.wander_cov = cfg.block_wander_cov(trips);
         cfg.reference_se = cfg.day_spread(trips);
@@ -379,6 +421,112 @@ impl SequentialConfig {
             out[m] = (1.0 / precision).sqrt();
         }
         out
+    }
+
+    /// A trip's healthy score variance per mode as a·info + b, fitted to the training's
+    /// squared scores by least squares weighted by the variance itself (iteratively
+    /// reweighted, as for any variance function: var(score²) = 2·var² for a Gaussian score),
+    /// a and b at least 0:
+    ///
+    /// ```text
+    /// E[score_m²] = a_m·info_m + b_m       info_m = mean x_m² of the trip
+    /// ```
+    ///
+    /// a is the noise of the moving samples, which a trip gathers in proportion to its
+    /// length; b what every trip carries whatever its length: the transients at its start and
+    /// stop, where the 1 Hz samples blur the acceleration and the channels' lags misalign it.
+    /// The pooled s² (b = 0) takes a short trip's error for noise of a long one's kind: on a
+    /// simulated 630 kg car a fifth of the trips, the shortest, had s² of 0.27 per unit
+    /// information along the motor signature, the longest fifth 0.046; a run of ten short hops
+    /// read as a change of 6 standard errors a trip.
+    pub fn trip_variance(&self, trips: &[TripEvidence]) -> [[f64; 2]; N_MODES] {
+        std::array::from_fn(|m| {
+            let data: Vec<(f64, f64)> = trips
+                .iter()
+                .map(|t| {
+                    let (score, info) = self.score(t);
+                    (info[m], score[m] * score[m])
+                })
+                .filter(|(i, q)| *i > 0.0 && q.is_finite())
+                .collect();
+            let (mut a, mut b) = (self.s2[m], 0.0);
+            for _ in 0..TRIP_VARIANCE_PASSES {
+                // Normal equations of Σ w·(q − a·i − b)², w = 1/v².
+                let (mut sii, mut si, mut s1, mut siq, mut sq) = (0.0, 0.0, 0.0, 0.0, 0.0);
+                for &(i, q) in &data {
+                    let v = a * i + b;
+                    let w = 1.0 / (v * v);
+                    sii += w * i * i;
+                    si += w * i;
+                    s1 += w;
+                    siq += w * i * q;
+                    sq += w * q;
+                }
+                let det = sii * s1 - si * si;
+                let (na, nb) = if det > 0.0 {
+                    ((s1 * siq - si * sq) / det, (sii * sq - si * siq) / det)
+                } else {
+                    (f64::NAN, f64::NAN)
+                };
+                (a, b) = if na > 0.0 && nb >= 0.0 {
+                    (na, nb)
+                } else {
+                    // The constraint binds: the pooled fit with b = 0.
+                    (self.s2[m], 0.0)
+                };
+            }
+            [a, b]
+        })
+    }
+
+    /// The healthy wander of each signature's level between consecutive windows of each GLR
+    /// length L, beyond their noise: √max(0, mean (y_b − ȳ)² − mean Σv/I_b²) over blocks b
+    /// of L trips, y_b = Σ score/I_b, v each trip's variance ([`SequentialConfig::trip_variance`]).
+    /// A GLR window of L trips carries the wander of its own scale: a run of odd trips within
+    /// an hour (a busy morning's loaded hops) moves a window of twenty more than the blocks of
+    /// fifty the CUSUMs' wander is measured on, which average it away.
+    pub fn glr_wander(&self, trips: &[TripEvidence]) -> [[f64; GLR_N]; N_MODES] {
+        std::array::from_fn(|m| {
+            std::array::from_fn(|l| {
+                let blocks: Vec<(f64, f64)> = trips
+                    .chunks_exact(GLR_LENGTHS[l])
+                    .map(|b| {
+                        let (s, i, v) = b.iter().fold((0.0, 0.0, 0.0), |(s, i, v), t| {
+                            let (score, info) = self.score(t);
+                            (s + score[m], i + info[m], v + self.trip_var_of(m, info[m]))
+                        });
+                        (s / i, v / (i * i))
+                    })
+                    .filter(|(y, v)| y.is_finite() && v.is_finite())
+                    .collect();
+                if blocks.len() < 2 {
+                    return self.wander[m];
+                }
+                let n = blocks.len() as f64;
+                let mean = blocks.iter().map(|b| b.0).sum::<f64>() / n;
+                let spread = blocks.iter().map(|b| (b.0 - mean).powi(2)).sum::<f64>() / (n - 1.0);
+                let noise = blocks.iter().map(|b| b.1).sum::<f64>() / n;
+                (spread - noise).max(0.0).sqrt()
+            })
+        })
+    }
+
+    /// What a GLR window of the `l`-th length carries beyond its trips' noise, per unit W²:
+    /// the wander of its scale and θ0's error.
+    fn glr_floor(&self, m: usize, l: usize) -> f64 {
+        let wander = match &self.glr_wander {
+            Some(w) => w[m][l],
+            None => self.wander[m],
+        };
+        wander * wander + self.reference_se[m] * self.reference_se[m]
+    }
+
+    /// The healthy variance of one trip's score along signature `m` with information `info`.
+    fn trip_var_of(&self, m: usize, info: f64) -> f64 {
+        match &self.trip_var {
+            Some(v) => v[m][0] * info + v[m][1],
+            None => self.s2[m] * info,
+        }
     }
 
     /// sd of the single-signature coefficient between blocks of [`WANDER_BLOCK_TRIPS`]
@@ -563,6 +711,20 @@ impl SlopeSums {
     fn spans_line(&self) -> bool {
         self.tau_end >= SLOPE_MIN_DAYS
     }
+
+    /// Adds a trip that started at `start` with its score and x·xᵀ, τ days after the window's
+    /// first trip.
+    fn add(&mut self, start: f64, score: &[f64; N_MODES], xtx: &[f64; 6]) {
+        let tau = (start - self.t0) / DAY_S;
+        self.tau_end = tau;
+        for i in 0..N_MODES {
+            self.s1[i] += tau * score[i];
+        }
+        for k in 0..6 {
+            self.w1[k] += tau * xtx[k];
+            self.w2[k] += tau * tau * xtx[k];
+        }
+    }
 }
 
 /// One CUSUM with the sums of the window it holds as changed.
@@ -624,8 +786,16 @@ pub struct Decision {
     pub window_trips: u32,
     /// Signature of the leading CUSUM (the one nearest its threshold).
     pub lead_signature: FaultMode,
-    /// Its change size ν, in standard errors of one trip.
+    /// Its change size ν, in standard errors of one trip; when the GLR leads, the size its
+    /// window shows.
     pub lead_size: f64,
+    /// Whether the window-limited GLR leads ([`Sequential::glr`]) rather than a CUSUM.
+    #[serde(default)]
+    pub lead_glr: bool,
+    /// The CUSUMs' own largest G/h (`ratio` is the larger of it and the GLR's z²/h); 0 in
+    /// decisions saved before it was kept.
+    #[serde(with = "exact", default)]
+    pub cusum_ratio: f64,
     /// Log-likelihood ratio of each signature alone (motor, brake, friction) against no
     /// change on the leading window, z_m²/2: the evidence the mode is named from, and the
     /// reason when it is `unknown` (the best does not lead the runner-up by ln
@@ -654,9 +824,12 @@ pub struct Decision {
 /// one.
 pub const RECENT_TRIPS: usize = WANDER_BLOCK_TRIPS;
 
-/// The shortest run of trips a change point may leave after it: a suffix of a few odd trips
-/// is not a level; ten is about the fewest a CUSUM of the largest size decides on.
-pub const CHANGE_POINT_MIN_TRIPS: usize = 10;
+/// The shortest run of trips a change point may leave after it: a suffix of one or two odd
+/// trips is not a level, and the odds a shorter suffix must beat the whole window by keep
+/// noise from choosing one. Five: the GLR decides a large step once its shortest window
+/// holds it, which can be after eight of its trips, and a change point held at ten read
+/// such steps a fifth low (the window's two healthy trips), 2 standard errors and more.
+pub const CHANGE_POINT_MIN_TRIPS: usize = 5;
 
 /// One trip's score and x·xᵀ, as the recent block keeps them.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -667,7 +840,68 @@ pub struct RecentTrip {
     /// x·xᵀ (packed upper triangle).
     #[serde(with = "exact::array")]
     pub xtx: [f64; 6],
+    /// The score as the GLR sums it: clipped to ±[`CLIP`] of the trip's healthy sd
+    /// (0 in a state saved before it was kept, which then adds nothing to a GLR window).
+    #[serde(with = "exact::array", default)]
+    pub clipped: [f64; N_MODES],
+    /// The trip's healthy score variance per mode ([`SequentialConfig::trip_variance`]).
+    #[serde(with = "exact::array", default)]
+    pub var: [f64; N_MODES],
+    /// The trip's load score and Σ mean x_load² (a GLR window's load-cell hypothesis).
+    #[serde(with = "exact::array", default)]
+    pub load: [f64; 2],
+    /// Start of the trip (s); NaN in a state saved before it was kept.
+    #[serde(with = "exact", default = "crate::exact::nan")]
+    pub start: f64,
 }
+
+impl RecentTrip {
+    /// The trip of `score`, x·xᵀ `xtx`, load score and information `load`, started at
+    /// `start`, with its variance and score clipped for the GLR.
+    fn new(
+        cfg: &SequentialConfig,
+        score: [f64; N_MODES],
+        xtx: [f64; 6],
+        load: [f64; 2],
+        start: f64,
+    ) -> RecentTrip {
+        let var: [f64; N_MODES] = std::array::from_fn(|m| cfg.trip_var_of(m, xtx[PACKED_DIAG[m]]));
+        RecentTrip {
+            score,
+            xtx,
+            clipped: std::array::from_fn(|m| {
+                // Clipped only beyond the bound: its square root is taken for the few trips
+                // that reach it.
+                if score[m] * score[m] <= CLIP * CLIP * var[m] {
+                    score[m]
+                } else {
+                    let bound = CLIP * var[m].sqrt();
+                    score[m].clamp(-bound, bound)
+                }
+            }),
+            var,
+            load,
+            start,
+        }
+    }
+}
+
+/// Window lengths of the window-limited GLR, in trips (the newest last), each about 1.5
+/// times the one before, up to the recent block ([`RECENT_TRIPS`]). Lai's GLR maximises over
+/// every length; a change of length L is seen by a window between L/√q and L·√q on a grid of
+/// ratio q, which keeps about 1/√q ≈ four fifths of its z², for a fifteenth of the
+/// evaluations. The shortest is twenty: on the field-like evaluation windows of ten and
+/// fifteen were crossed on healthy days by runs of five to ten odd trips (a busy morning's
+/// short hops on the 40-floor car, 5 to 17 standard errors each), which twenty dilute below
+/// the threshold, and a window must hold the information of twenty mean trips as well
+/// ([`glr`]).
+pub const GLR_LENGTHS: [usize; GLR_N] = [20, 30, 50];
+
+/// Number of the GLR's window lengths.
+pub const GLR_N: usize = 3;
+
+const _: () = assert!(GLR_LENGTHS[0] >= CHANGE_POINT_MIN_TRIPS);
+const _: () = assert!(GLR_LENGTHS[GLR_LENGTHS.len() - 1] <= RECENT_TRIPS);
 
 /// The CUSUM bank of one elevator: one per mode and size.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -678,6 +912,53 @@ pub struct Sequential {
     /// was kept (a change point is then looked for only among the trips kept since).
     #[serde(default)]
     pub recent: std::collections::VecDeque<RecentTrip>,
+    /// The window-limited GLR after the last trip, per mode ([`Sequential::glr`]); zeros in a
+    /// state saved before it was kept.
+    #[serde(default)]
+    pub glr: [Glr; N_MODES],
+    /// The sums of the GLR's windows over the recent trips, kept as trips come and go;
+    /// `None` until the first trip (and in a state saved before they were kept), when they
+    /// are summed from the recent trips.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub glr_sums: Option<[GlrSums; GLR_N]>,
+}
+
+/// The sums of one GLR window, per mode: Σ clipped score, Σ information, Σ each trip's own
+/// variance ([`glr`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct GlrSums {
+    /// Σ clipped score.
+    #[serde(with = "exact::array")]
+    pub s: [f64; N_MODES],
+    /// Σ info.
+    #[serde(with = "exact::array")]
+    pub w: [f64; N_MODES],
+    /// Σ v.
+    #[serde(with = "exact::array")]
+    pub v: [f64; N_MODES],
+}
+
+impl GlrSums {
+    /// Adds the trip `r` (`sign` 1) or takes it out (−1).
+    #[inline]
+    fn add(&mut self, r: &RecentTrip, sign: f64) {
+        for m in 0..N_MODES {
+            self.s[m] += sign * r.clipped[m];
+            self.w[m] += sign * r.xtx[PACKED_DIAG[m]];
+            self.v[m] += sign * r.var[m];
+        }
+    }
+}
+
+/// The window-limited GLR of one signature: the largest z² over the windows of
+/// [`GLR_LENGTHS`] ending at the last trip, and that window's length.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Glr {
+    /// z² of the best window (0 when no window's score rose).
+    #[serde(with = "exact")]
+    pub z2: f64,
+    /// Its length in trips.
+    pub trips: u32,
 }
 
 impl Sequential {
@@ -710,15 +991,7 @@ impl Sequential {
                 c.load_score += load_score;
                 c.load_info += t.load.ll;
                 if let Some(sl) = &mut c.slope {
-                    let tau = (t.start - sl.t0) / DAY_S;
-                    sl.tau_end = tau;
-                    for i in 0..N_MODES {
-                        sl.s1[i] += tau * score[i];
-                    }
-                    for k in 0..6 {
-                        sl.w1[k] += tau * t.xtx[k];
-                        sl.w2[k] += tau * tau * t.xtx[k];
-                    }
+                    sl.add(t.start, &score, &t.xtx);
                 }
                 let r = c.g / cfg.h[m][j];
                 if r > lead.2 {
@@ -726,31 +999,63 @@ impl Sequential {
                 }
             }
         }
-        while self.recent.len() >= RECENT_TRIPS {
-            self.recent.pop_front();
-        }
-        self.recent.push_back(RecentTrip { score, xtx: t.xtx });
-        let c = &self.bank[lead.0][lead.1];
+        self.remember(
+            cfg,
+            RecentTrip::new(cfg, score, t.xtx, [load_score, t.load.ll], t.start),
+        );
+        // The GLR leads when it is nearer its threshold than every CUSUM: its window is the
+        // recent trips it found changed.
+        let glr_window = self
+            .glr_lead(cfg)
+            .filter(|g| g.1 > lead.2)
+            .map(|(m, r)| (m, r, self.suffix(self.glr[m].trips as usize)));
+        let (c, ratio, signature, size, start) = match &glr_window {
+            Some((m, r, window)) => {
+                let k = PACKED_DIAG[*m];
+                let size = if window.w[k] > 0.0 {
+                    window.s[*m] / window.w[k] / (cfg.s2[*m] / cfg.info[*m]).sqrt()
+                } else {
+                    f64::NAN
+                };
+                let start = self.recent[self.recent.len() - window.trips as usize].start;
+                (window, *r, *m, size, start)
+            }
+            None => {
+                let c = &self.bank[lead.0][lead.1];
+                let start = c.slope.map_or(f64::NAN, |sl| sl.t0);
+                (c, lead.2, lead.0, SIZES[lead.1], start)
+            }
+        };
         let (mode, machine_mode, isolation, isolation_load) = if c.trips > 0 {
             isolate(cfg, c)
         } else {
             (FaultMode::Unknown, FaultMode::Unknown, [0.0; N_MODES], 0.0)
         };
-        let (drift, drift_se) = if lead.2 >= drift_from {
+        let (drift, drift_se) = if ratio >= drift_from {
             // A window without a line (under SLOPE_MIN_DAYS) reports its level since the
             // change point the recent trips show, which is the window's own start unless a
             // later one explains them better; a window with a line reports the line's level
             // now.
-            let has_line = c.slope.is_some_and(|sl| sl.spans_line());
             let read_as = leaning(machine_mode, &isolation);
+            let m = if read_as.is_machine() {
+                read_as as usize
+            } else {
+                signature
+            };
+            // The GLR's window is at most the recent block: on a ramp that began hours
+            // before, the line of the mode's own CUSUM window reads where it stands now.
+            let c = match &glr_window {
+                Some(_) => self.bank[m]
+                    .iter()
+                    .filter(|b| b.slope.is_some_and(|sl| sl.spans_line()))
+                    .max_by_key(|b| b.trips)
+                    .unwrap_or(c),
+                None => c,
+            };
+            let has_line = c.slope.is_some_and(|sl| sl.spans_line());
             let since = if has_line {
                 None
             } else {
-                let m = if read_as.is_machine() {
-                    read_as as usize
-                } else {
-                    lead.0
-                };
                 self.since_change(c, m, cfg.s2[m])
             };
             drifts(cfg, since.as_ref().unwrap_or(c), read_as)
@@ -758,23 +1063,90 @@ impl Sequential {
             ([f64::NAN; N_MODES], [f64::NAN; N_MODES])
         };
         Decision {
-            ratio: lead.2,
+            ratio,
             mode,
             isolation,
             drift,
             drift_se,
             window_trips: c.trips,
-            lead_signature: MACHINE_MODES[lead.0],
-            lead_size: SIZES[lead.1],
+            lead_signature: MACHINE_MODES[signature],
+            lead_size: size,
+            lead_glr: glr_window.is_some(),
+            cusum_ratio: lead.2,
             isolation_load,
             machine_mode,
-            window_start: c.slope.map_or(f64::NAN, |sl| sl.t0),
+            window_start: start,
             load_offset: if cfg.load.is_some() && c.load_info > 0.0 {
                 -c.load_score / c.load_info
             } else {
                 f64::NAN
             },
         }
+    }
+
+    /// Keeps `trip` as the newest of the recent block and updates the GLR ([`Sequential::glr`]).
+    fn remember(&mut self, cfg: &SequentialConfig, trip: RecentTrip) {
+        if cfg.glr_h.is_some() {
+            let recent = &self.recent;
+            let sums = self.glr_sums.get_or_insert_with(|| {
+                std::array::from_fn(|l| {
+                    let mut w = GlrSums::default();
+                    for r in recent.iter().rev().take(GLR_LENGTHS[l]) {
+                        w.add(r, 1.0);
+                    }
+                    w
+                })
+            });
+            let n = recent.len();
+            for (l, w) in sums.iter_mut().enumerate() {
+                w.add(&trip, 1.0);
+                if n >= GLR_LENGTHS[l] {
+                    w.add(&recent[n - GLR_LENGTHS[l]], -1.0);
+                }
+            }
+        }
+        while self.recent.len() >= RECENT_TRIPS {
+            self.recent.pop_front();
+        }
+        self.recent.push_back(trip);
+        if let (Some(_), Some(sums)) = (cfg.glr_h, &self.glr_sums) {
+            self.glr = glr(cfg, sums, self.recent.len());
+        }
+    }
+
+    /// The mode whose GLR is nearest its threshold, with its z²/h; `None` without GLR
+    /// thresholds or while no window rose.
+    fn glr_lead(&self, cfg: &SequentialConfig) -> Option<(usize, f64)> {
+        let h = cfg.glr_h?;
+        let (m, r) = (0..N_MODES)
+            .map(|m| (m, self.glr[m].z2 / h[m]))
+            .fold((0, 0.0f64), |a, b| if b.1 > a.1 { b } else { a });
+        (r > 0.0).then_some((m, r))
+    }
+
+    /// The last `n` recent trips as one window, with its time-weighted sums for the line
+    /// when their start times are known (a window spanning the night reads where a ramp
+    /// stands now, not its mean: [`SLOPE_MIN_DAYS`]).
+    fn suffix(&self, n: usize) -> Cusum {
+        let first = self.recent.len().saturating_sub(n);
+        let t0 = self.recent.get(first).map_or(f64::NAN, |r| r.start);
+        let mut c = Cusum {
+            slope: t0.is_finite().then(|| SlopeSums {
+                t0,
+                ..SlopeSums::default()
+            }),
+            ..Cusum::default()
+        };
+        for r in self.recent.iter().skip(first) {
+            c.add(&r.score, &r.xtx);
+            c.load_score += r.load[0];
+            c.load_info += r.load[1];
+            c.trips += 1;
+            if let Some(sl) = &mut c.slope {
+                sl.add(r.start, &r.score, &r.xtx);
+            }
+        }
+        c
     }
 
     /// Advances the CUSUMs' G by one usable trip (its x·r and the [`TripWeights`] of its x·xᵀ)
@@ -787,6 +1159,7 @@ impl Sequential {
         &mut self,
         cfg: &SequentialConfig,
         xtr: &[f64; N_MODES],
+        xtx: &[f64; 6],
         w: &TripWeights,
     ) -> f64 {
         let score = SequentialConfig::score_of(xtr, w);
@@ -803,7 +1176,8 @@ impl Sequential {
                 ratio = ratio.max(c.g / cfg.h[m][j]);
             }
         }
-        ratio
+        self.remember(cfg, RecentTrip::new(cfg, score, *xtx, [0.0; 2], f64::NAN));
+        ratio.max(self.glr_lead(cfg).map_or(0.0, |g| g.1))
     }
 
     /// The trips of window `c` since its most likely change point for signature `m`, as a
@@ -1024,6 +1398,57 @@ impl Wander {
     }
 }
 
+/// The window-limited GLR of a change of unknown size along each signature alone (Lai,
+/// 1995), over the windows of [`GLR_LENGTHS`] ending at the newest of the `recent` trips, from their running `sums`:
+///
+/// ```text
+/// window of the last n trips:  S = Σ clipped score_m,  W = Σ info_m
+///   its coefficient θ = S/W, var S = Σ v + f_m·W²     v = a_m·info + b_m: each trip's healthy
+///                                                      variance (trip_variance); f_m: the
+///                                                      healthy wander and θ0's error
+///                                                      (SequentialConfig::floor_var), which
+///                                                      no number of the window's trips
+///                                                      averages away
+///   z² = S²/(Σ v + f_m·W²)  when S > 0, else 0        Glr: the largest over n, and its n
+/// ```
+///
+/// Why beside the CUSUMs: a CUSUM of size ν in units of one trip's standard error gains at
+/// most ν·CLIP − ν²/2 a trip, and its threshold is set by the bootstrap's healthy hours,
+/// which wander together: where that wander is a sizeable share of a trip's error, a run of
+/// healthy hours a little above the training's level piles up as much G as a large fault's
+/// first hour (a 40-floor car with its drive off at rest, 3 days of training: the motor's
+/// size 1/2 threshold at 186, where the four days after the training reached 5.6), and a
+/// Kd step of +25 %, 5 to 10 standard errors on every trip, waited 117 trips for it. The GLR
+/// weighs a window against the noise and the wander together, so a change many times the
+/// wander is decided within the shortest window, and its threshold, bootstrapped from the
+/// same hours, is one of z² (of the order of 2·ln of the windows a year).
+pub fn glr(cfg: &SequentialConfig, sums: &[GlrSums; GLR_N], recent: usize) -> [Glr; N_MODES] {
+    let mut out = [Glr::default(); N_MODES];
+    for m in 0..N_MODES {
+        // The best window as (S², var S, length), compared by cross-multiplication: one
+        // division for the mode, not one per window.
+        let (mut s2_best, mut v_best, mut n_best) = (0.0, 1.0, 0);
+        for (l, win) in sums.iter().enumerate() {
+            if recent < GLR_LENGTHS[l] {
+                break;
+            }
+            let (s, w) = (win.s[m], win.w[m]);
+            let v = win.v[m] + cfg.glr_floor(m, l) * w * w;
+            let informed = w >= GLR_LENGTHS[0] as f64 * cfg.info[m];
+            if informed && s > 0.0 && v > 0.0 && (n_best == 0 || s * s * v_best > s2_best * v) {
+                (s2_best, v_best, n_best) = (s * s, v, GLR_LENGTHS[l]);
+            }
+        }
+        if n_best > 0 {
+            out[m] = Glr {
+                z2: s2_best / v_best,
+                trips: n_best as u32,
+            };
+        }
+    }
+    out
+}
+
 /// uᵀ·A·v for a 3×3 matrix A.
 fn form(a: &[[f64; N_MODES]; N_MODES], u: &[f64; N_MODES], v: &[f64; N_MODES]) -> f64 {
     (0..N_MODES)
@@ -1227,6 +1652,9 @@ mod tests {
             reference_se: [0.0; N_MODES],
             load: None,
             wander_cov: None,
+            glr_h: None,
+            trip_var: None,
+            glr_wander: None,
         }
     }
 
@@ -1413,6 +1841,104 @@ mod tests {
             read_spread < 0.5 * joint_spread,
             "summed squared errors of the three drifts over {unnamed} unnamed windows: \
              {read_spread} as the decision reads them, {joint_spread} read jointly"
+        );
+    }
+
+    #[test]
+    fn a_trips_variance_is_told_apart_into_its_length_and_its_ends() {
+        // Scores of variance a·info + b with a = 0.5, b = 2 over trips of information 1 to
+        // 100: the reweighted fit finds both within a few percent, where the pooled s² (b = 0)
+        // would put a short trip's noise at twice its size and a long one's at half.
+        let mut rng = Rng::new(7);
+        let cfg = unit_config();
+        let trips: Vec<TripEvidence> = (0..4000)
+            .map(|k| {
+                let info = rng.uniform(1.0, 100.0);
+                let sd = (0.5 * info + 2.0f64).sqrt();
+                let mut t = trip_with(
+                    &[info, 0.0, 0.0, info, 0.0, info],
+                    k as f64,
+                    &[0.0; 3],
+                    &mut rng,
+                );
+                t.xtr = std::array::from_fn(|_| sd * rng.normal());
+                t
+            })
+            .collect();
+        for [a, b] in cfg.trip_variance(&trips) {
+            assert!(
+                (a - 0.5).abs() < 0.05 && (b - 2.0).abs() < 0.4,
+                "a {a}, b {b}"
+            );
+        }
+    }
+
+    #[test]
+    fn a_large_step_is_decided_by_the_shortest_window_the_cusums_by_far_later() {
+        // A step of four standard errors a trip along the motor signature, with CUSUM
+        // thresholds as a wandering car's bootstrap sets them (h = 60 for the size 1/2): the
+        // GLR decides once its shortest window holds the step, the CUSUMs alone some forty
+        // trips later; its window is the step's and its drift the step's within 2 SE.
+        let mut cfg = unit_config();
+        cfg.h = [[60.0; N_SIZES]; N_MODES];
+        cfg.glr_h = Some([30.0; N_MODES]);
+        cfg.wander = [0.1; N_MODES];
+        let step = [4.0, 0.0, 0.0];
+        let first = |cfg: &SequentialConfig| {
+            let mut rng = Rng::new(11);
+            let mut seq = Sequential::default();
+            for k in 0..200 {
+                seq.push(cfg, &trip(f64::from(k), &[0.0; 3], &mut rng), 0.5);
+            }
+            (0..200)
+                .map(|k| seq.push(cfg, &trip(f64::from(200 + k), &step, &mut rng), 0.5))
+                .enumerate()
+                .find(|(_, d)| d.ratio >= 1.0)
+                .expect("the step must be decided")
+        };
+        let (k, d) = first(&cfg);
+        assert!(
+            k < GLR_LENGTHS[0] + 5,
+            "the GLR decided {k} trips after the step"
+        );
+        assert_eq!(d.lead_signature, FaultMode::Motor);
+        assert_eq!(d.mode, FaultMode::Motor, "{d:?}");
+        assert!(
+            (d.drift[MOTOR] - step[MOTOR]).abs() < 2.0 * d.drift_se[MOTOR],
+            "drift {} ± {}",
+            d.drift[MOTOR],
+            d.drift_se[MOTOR]
+        );
+        let (k_cusum, _) = first(&SequentialConfig { glr_h: None, ..cfg });
+        assert!(
+            k_cusum > k + 30,
+            "the CUSUMs alone decided after {k_cusum} trips"
+        );
+    }
+
+    #[test]
+    fn short_hops_decide_nothing_until_they_hold_a_windows_information() {
+        // Fifty trips of a fifth of the mean information whose scores read five standard
+        // deviations high each: no GLR window holds the information of its shortest length
+        // in mean trips, so none is weighed; the same scores on trips of the mean
+        // information are a change.
+        let mut cfg = unit_config();
+        cfg.glr_h = Some([30.0; N_MODES]);
+        let run = |info: f64| {
+            let mut seq = Sequential::default();
+            let xtx = [info, 0.0, 0.0, info, 0.0, info];
+            for k in 0..RECENT_TRIPS {
+                let mut t = trip_with(&xtx, k as f64, &[0.0; 3], &mut Rng::new(k as u64));
+                t.xtr = [5.0 * info.sqrt(), 0.0, 0.0];
+                seq.push(&cfg, &t, f64::INFINITY);
+            }
+            seq.glr[MOTOR]
+        };
+        assert_eq!(run(0.2).z2, 0.0);
+        let full = run(1.0);
+        assert!(
+            full.z2 > 30.0 && full.trips as usize == RECENT_TRIPS,
+            "{full:?}"
         );
     }
 }

@@ -390,7 +390,7 @@ impl RiskTracker {
             let s = self.statistics_of(cfg, &p.trip.xtx, &xtr, p.trip.rr, p.lens);
             self.accumulate(cfg, &s);
             if let (Some(seq), Some(w)) = (&cfg.sequential, &p.weights) {
-                self.last.decision.ratio = self.seq.advance_g(seq, &xtr, w);
+                self.last.decision.ratio = self.seq.advance_g(seq, &xtr, &p.trip.xtx, w);
             }
         }
         RiskLevels {
@@ -423,6 +423,13 @@ impl RiskTracker {
             return 0;
         };
         let mut longest = 0;
+        if let Some(h) = seq.glr_h {
+            for (g, h) in self.seq.glr.iter().zip(h) {
+                if g.z2 >= cfg.release_ratio * h {
+                    longest = longest.max(g.trips);
+                }
+            }
+        }
         for (m, row) in self.seq.bank.iter().enumerate() {
             for (j, c) in row.iter().enumerate() {
                 if c.g >= cfg.release_ratio * seq.h[m][j] {
@@ -436,5 +443,10 @@ impl RiskTracker {
     /// G of every CUSUM now, per mode and size (for calibration).
     pub fn cusum_g(&self) -> [[f64; super::sequential::N_SIZES]; N_MODES] {
         self.seq.g()
+    }
+
+    /// z² of the window-limited GLR now, per mode (for calibration).
+    pub fn glr_z2(&self) -> [f64; N_MODES] {
+        self.seq.glr.map(|g| g.z2)
     }
 }

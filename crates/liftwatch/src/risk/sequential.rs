@@ -368,9 +368,10 @@ impl SequentialConfig {
             cfg.info[m] = si[m] / n;
         }
         cfg.trip_var = Some(cfg.trip_variance(trips));
-        cfg.glr_wander = Some(cfg.glr_wander(trips));
         cfg.wander = cfg.block_wander(trips);
         cfg.wander_cov = cfg.block_wander_cov(trips);
+        // After the blocks' wander, which a length too long for two windows falls back to.
+        cfg.glr_wander = Some(cfg.glr_wander(trips));
         cfg.reference_se = cfg.day_spread(trips);
         Some(cfg)
     }

@@ -890,8 +890,8 @@ impl RecentTrip {
 /// Window lengths of the window-limited GLR, in trips (the newest last), each about 1.5
 /// times the one before, up to the recent block ([`RECENT_TRIPS`]). Lai's GLR maximises over
 /// every length; a change of length L is seen by a window between L/√q and L·√q on a grid of
-/// ratio q, which keeps about 1/√q ≈ four fifths of its z², for a fifteenth of the
-/// evaluations. The shortest is twenty: on the field-like evaluation windows of ten and
+/// ratio q, which keeps about 1/√q ≈ four fifths of its z², for a tenth of the evaluations
+/// (three lengths of the 31 from twenty to fifty). The shortest is twenty: on the field-like evaluation windows of ten and
 /// fifteen were crossed on healthy days by runs of five to ten odd trips (a busy morning's
 /// short hops on the 40-floor car, 5 to 17 standard errors each), which twenty dilute below
 /// the threshold, and a window must hold the information of twenty mean trips as well

@@ -783,7 +783,7 @@ impl Monitor {
             x.time,
             a.decision.ratio,
             diagnose(a, cfg),
-            a.decision.lead_glr && a.decision.cusum_ratio < 1.0,
+            a.decision.glr_alone(),
         );
         st.alarm.update_machine(a.risk, seq, cfg);
         let level = st.alarm.level();

@@ -281,9 +281,15 @@ impl SequentialConfig {
         self.s2.iter().fold(0.0f64, |a, &b| a.max(b))
     }
 
+    /// se_m: the standard error of one mean trip's coefficient along signature `m`, the unit
+    /// of the CUSUMs' sizes (coefficient units).
+    pub fn trip_se(&self, m: usize) -> f64 {
+        (self.s2[m] / self.info[m]).sqrt()
+    }
+
     /// δ of mode `m`, size `j`, in coefficient units.
     pub fn delta(&self, m: usize, j: usize) -> f64 {
-        SIZES[j] * (self.s2[m] / self.info[m]).sqrt()
+        SIZES[j] * self.trip_se(m)
     }
 
     /// Checks a hand-edited model: every number finite, variances and thresholds positive.
@@ -707,6 +713,14 @@ pub struct SlopeSums {
 }
 
 impl SlopeSums {
+    /// The sums of a window whose first trip started at `t0`, before any trip is added.
+    fn starting(t0: f64) -> SlopeSums {
+        SlopeSums {
+            t0,
+            ..SlopeSums::default()
+        }
+    }
+
     /// Whether the window spans [`SLOPE_MIN_DAYS`], enough time for its line (false for a
     /// time that is not a number).
     fn spans_line(&self) -> bool {
@@ -820,6 +834,14 @@ pub struct Decision {
     pub window_start: f64,
 }
 
+impl Decision {
+    /// Whether only the window-limited GLR holds a change: it leads and no CUSUM has crossed
+    /// (such a crossing must stand before it raises: [`crate::alarm::GLR_HOLD_S`]).
+    pub fn glr_alone(&self) -> bool {
+        self.lead_glr && self.cusum_ratio < 1.0
+    }
+}
+
 /// Trips kept for the change point of a window's drift: the block size the healthy wander is
 /// measured on ([`WANDER_BLOCK_TRIPS`]); an hour or two of a busy car, a morning of a quiet
 /// one.
@@ -845,9 +867,6 @@ pub struct RecentTrip {
     /// (0 in a state saved before it was kept, which then adds nothing to a GLR window).
     #[serde(with = "exact::array", default)]
     pub clipped: [f64; N_MODES],
-    /// The trip's healthy score variance per mode ([`SequentialConfig::trip_variance`]).
-    #[serde(with = "exact::array", default)]
-    pub var: [f64; N_MODES],
     /// The trip's load score and Σ mean x_load² (a GLR window's load-cell hypothesis).
     #[serde(with = "exact::array", default)]
     pub load: [f64; 2],
@@ -880,7 +899,6 @@ impl RecentTrip {
                     score[m].clamp(-bound, bound)
                 }
             }),
-            var,
             load,
             start,
         }
@@ -942,11 +960,12 @@ pub struct GlrSums {
 impl GlrSums {
     /// Adds the trip `r` (`sign` 1) or takes it out (−1).
     #[inline]
-    fn add(&mut self, r: &RecentTrip, sign: f64) {
+    fn add(&mut self, cfg: &SequentialConfig, r: &RecentTrip, sign: f64) {
         for m in 0..N_MODES {
+            let info = r.xtx[PACKED_DIAG[m]];
             self.s[m] += sign * r.clipped[m];
-            self.w[m] += sign * r.xtx[PACKED_DIAG[m]];
-            self.v[m] += sign * r.var[m];
+            self.w[m] += sign * info;
+            self.v[m] += sign * cfg.trip_var_of(m, info);
         }
     }
 }
@@ -982,10 +1001,7 @@ impl Sequential {
                     continue;
                 }
                 if c.trips == 0 {
-                    c.slope = Some(SlopeSums {
-                        t0: t.start,
-                        ..SlopeSums::default()
-                    });
+                    c.slope = Some(SlopeSums::starting(t.start));
                 }
                 c.trips = c.trips.saturating_add(1);
                 c.add(&score, &t.xtx);
@@ -1014,7 +1030,7 @@ impl Sequential {
             Some((m, r, window)) => {
                 let k = PACKED_DIAG[*m];
                 let size = if window.w[k] > 0.0 {
-                    window.s[*m] / window.w[k] / (cfg.s2[*m] / cfg.info[*m]).sqrt()
+                    window.s[*m] / window.w[k] / cfg.trip_se(*m)
                 } else {
                     f64::NAN
                 };
@@ -1093,16 +1109,16 @@ impl Sequential {
                 std::array::from_fn(|l| {
                     let mut w = GlrSums::default();
                     for r in recent.iter().rev().take(GLR_LENGTHS[l]) {
-                        w.add(r, 1.0);
+                        w.add(cfg, r, 1.0);
                     }
                     w
                 })
             });
             let n = recent.len();
             for (l, w) in sums.iter_mut().enumerate() {
-                w.add(&trip, 1.0);
+                w.add(cfg, &trip, 1.0);
                 if n >= GLR_LENGTHS[l] {
-                    w.add(&recent[n - GLR_LENGTHS[l]], -1.0);
+                    w.add(cfg, &recent[n - GLR_LENGTHS[l]], -1.0);
                 }
             }
         }
@@ -1132,10 +1148,7 @@ impl Sequential {
         let first = self.recent.len().saturating_sub(n);
         let t0 = self.recent.get(first).map_or(f64::NAN, |r| r.start);
         let mut c = Cusum {
-            slope: t0.is_finite().then(|| SlopeSums {
-                t0,
-                ..SlopeSums::default()
-            }),
+            slope: t0.is_finite().then(|| SlopeSums::starting(t0)),
             ..Cusum::default()
         };
         for r in self.recent.iter().skip(first) {

@@ -322,6 +322,14 @@ impl SequentialConfig {
         for h in self.glr_h.iter().flatten() {
             check("risk.sequential.glr_h", *h, 1e-3, 1e9)?;
         }
+        // A variance or wander below 0 (or not a number) would make a trip's clip bound
+        // not a number, which f64::clamp refuses with a panic.
+        for v in self.trip_var.iter().flatten().flatten() {
+            check("risk.sequential.trip_var", *v, 0.0, 1e30)?;
+        }
+        for w in self.glr_wander.iter().flatten().flatten() {
+            check("risk.sequential.glr_wander", *w, 0.0, 1e3)?;
+        }
         if let Some(l) = &self.load {
             check("risk.sequential.load.theta", l.theta, -1e3, 1e3)?;
             check("risk.sequential.load.s2", l.s2, 1e-300, 1e30)?;
@@ -1856,6 +1864,26 @@ mod tests {
             "summed squared errors of the three drifts over {unnamed} unnamed windows: \
              {read_spread} as the decision reads them, {joint_spread} read jointly"
         );
+    }
+
+    #[test]
+    fn a_hand_edited_glr_variance_or_wander_out_of_range_is_refused() {
+        let mut cfg = unit_config();
+        cfg.trip_var = Some([[0.5, 2.0]; N_MODES]);
+        cfg.glr_wander = Some([[0.01; GLR_N]; N_MODES]);
+        cfg.validate().expect("fitted values are valid");
+        for bad in [-1.0, f64::NAN, f64::INFINITY] {
+            let mut c = cfg.clone();
+            c.trip_var = Some([[0.5, bad]; N_MODES]);
+            let err = c
+                .validate()
+                .expect_err("a variance out of range is refused");
+            assert!(err.contains("risk.sequential.trip_var"), "{err}");
+            let mut c = cfg.clone();
+            c.glr_wander = Some([[bad; GLR_N]; N_MODES]);
+            let err = c.validate().expect_err("a wander out of range is refused");
+            assert!(err.contains("risk.sequential.glr_wander"), "{err}");
+        }
     }
 
     #[test]

@@ -145,6 +145,13 @@ pub struct Evidence {
     /// null without a load reference in the model.
     #[serde(default)]
     pub load_offset_pct: f64,
+    /// Log-likelihood ratio of the three signatures together against the named mode's alone
+    /// on the trips the drifts are read from: how far they depart from one mode's change.
+    /// Above 1, the drifts' standard errors are widened by its square root (the Birge ratio:
+    /// `risk::sequential::Decision::misfit`); 0 while the drifts are the long memory's (and
+    /// in events written before it was kept).
+    #[serde(default)]
+    pub llr_misfit: f64,
 }
 
 impl Evidence {
@@ -180,6 +187,7 @@ impl Evidence {
             llr_friction: a.decision.isolation[FRICTION],
             llr_load: a.decision.isolation_load,
             load_offset_pct: 100.0 * a.decision.load_offset,
+            llr_misfit: a.decision.misfit,
         }
     }
 }

@@ -840,6 +840,13 @@ pub struct Decision {
     /// state saved before it was kept had begun).
     #[serde(with = "exact", default = "crate::exact::nan")]
     pub window_start: f64,
+    /// Log-likelihood ratio of the three signatures together against the named mode's alone
+    /// on the trips the drifts are read from, χ²/2 ([`misfit_llr`]): how far those trips
+    /// depart from one mode's change. The drifts' standard errors are widened by
+    /// √(2·misfit/[`MISFIT_DOF`]) where that exceeds 1. 0 while no drifts are read (and in
+    /// decisions saved before it was kept).
+    #[serde(with = "exact", default)]
+    pub misfit: f64,
 }
 
 impl Decision {
@@ -1056,7 +1063,7 @@ impl Sequential {
         } else {
             (FaultMode::Unknown, FaultMode::Unknown, [0.0; N_MODES], 0.0)
         };
-        let (drift, drift_se) = if ratio >= drift_from {
+        let (drift, drift_se, misfit) = if ratio >= drift_from {
             // A window without a line (under SLOPE_MIN_DAYS) reports its level since the
             // change point the recent trips show, which is the window's own start unless a
             // later one explains them better; a window with a line reports the line's level
@@ -1084,7 +1091,7 @@ impl Sequential {
             };
             drifts(cfg, since.as_ref().unwrap_or(c), read_as)
         } else {
-            ([f64::NAN; N_MODES], [f64::NAN; N_MODES])
+            ([f64::NAN; N_MODES], [f64::NAN; N_MODES], 0.0)
         };
         Decision {
             ratio,
@@ -1100,6 +1107,7 @@ impl Sequential {
             isolation_load,
             machine_mode,
             window_start: start,
+            misfit,
             load_offset: if cfg.load.is_some() && c.load_info > 0.0 {
                 -c.load_score / c.load_info
             } else {
@@ -1552,50 +1560,54 @@ fn leaning(named: FaultMode, isolation: &[f64; N_MODES]) -> FaultMode {
 
 /// The three drifts of a window read under the machine mode `machine_mode` (the one its
 /// isolation named or leans to, [`leaning`]): that mode's from its signature alone and the
-/// other two from what it leaves; all three jointly when it is `unknown`.
+/// other two from what it leaves, their standard errors widened by the window's misfit to
+/// that mode ([`misfit_llr`]), which is returned third; all three jointly when it is
+/// `unknown` (misfit 0: three coefficients leave none).
 fn drifts(
     cfg: &SequentialConfig,
     c: &Cusum,
     machine_mode: FaultMode,
-) -> ([f64; N_MODES], [f64; N_MODES]) {
+) -> ([f64; N_MODES], [f64; N_MODES], f64) {
     let (mut drift, mut drift_se) = window_drift(cfg, c);
-    if machine_mode.is_machine() {
-        let m = machine_mode as usize;
-        (drift[m], drift_se[m]) = alone_drift(cfg, c, m);
-        for (i, d, se) in remainder_drifts(cfg, c, m).into_iter().flatten() {
-            (drift[i], drift_se[i]) = (d, se);
-        }
-        let scale = misfit_scale(cfg, c, m);
-        for se in &mut drift_se {
-            *se *= scale;
-        }
+    if !machine_mode.is_machine() {
+        return (drift, drift_se, 0.0);
     }
-    (drift, drift_se)
+    let m = machine_mode as usize;
+    (drift[m], drift_se[m]) = alone_drift(cfg, c, m);
+    for (i, d, se) in remainder_drifts(cfg, c, m).into_iter().flatten() {
+        (drift[i], drift_se[i]) = (d, se);
+    }
+    let misfit = misfit_llr(cfg, c, m);
+    let scale = (2.0 * misfit / MISFIT_DOF).max(1.0).sqrt();
+    for se in &mut drift_se {
+        *se *= scale;
+    }
+    (drift, drift_se, misfit)
 }
 
 /// Degrees of freedom of the named mode's misfit on a window: three signatures against one.
 const MISFIT_DOF: f64 = (N_MODES - 1) as f64;
 
-/// The factor the standard errors of a window read under machine mode `m` are widened by
-/// where the window departs from that signature alone more than its noise and the healthy
-/// wander allow: the Birge ratio √(max(1, χ²/ν)), χ² the misfit of the hypothesis "only m
-/// changed" against the window's joint estimate of the three coefficients, ν =
-/// [`MISFIT_DOF`]:
+/// How far a window read under machine mode `m` departs from that signature alone: the
+/// log-likelihood ratio χ²/2 of the three signatures' joint estimate against the best change
+/// along m alone,
 ///
 ///   θ̂ = W⁻¹·S,  Σ = s²·W⁻¹ + Σ_w·B/n + diag(se0²),  χ² = min_δ (θ̂ − δ·e_m)ᵀ·Σ⁻¹·(θ̂ − δ·e_m)
 ///
 /// s² the largest of the three noise factors, Σ_w the joint wander between blocks of B
 /// trips averaged over the window's n (as the isolation weighs it, [`Wander`]; each mode's
-/// wander alone where the model has no Σ_w) and se0 θ0's own error. A real fault is never
-/// exactly its signature, and a drift read along it is off by the part of the departure its
-/// signature shares: on the field bench a Kd step of +25 % on the 40-floor car read
-/// +21.0 ± 0.8 % with a brake drag of −165 ± 70 N beside it. A standard error that leaves
-/// the departure out states a precision the window itself shows it does not have; a window
-/// within its noise and wander of its signature (χ² ≤ ν) keeps its standard errors. 1 where
-/// the window's joint estimate is not determined.
-fn misfit_scale(cfg: &SequentialConfig, c: &Cusum, m: usize) -> f64 {
+/// wander alone where the model has no Σ_w) and se0 θ0's own error; χ² has [`MISFIT_DOF`]
+/// degrees of freedom. Where χ²/ν exceeds 1 the drifts' standard errors are widened by the
+/// Birge ratio √(χ²/ν) ([`drifts`]), the factor that reconciles a fit's stated errors with
+/// its scatter. A real fault is never exactly its signature, and a drift read along it is
+/// off by the part of the departure its signature shares: on the field bench a Kd step of
+/// +25 % on the 40-floor car read +21.0 ± 0.8 % with a brake drag of −165 ± 70 N beside it.
+/// A standard error that leaves the departure out states a precision the window itself
+/// shows it does not have; a window within its noise and wander of its signature keeps its
+/// standard errors. 0 where the window's joint estimate is not determined.
+fn misfit_llr(cfg: &SequentialConfig, c: &Cusum, m: usize) -> f64 {
     let Some(inv) = spd_inverse(&c.w) else {
-        return 1.0;
+        return 0.0;
     };
     let s2 = cfg.largest_s2();
     let theta = mat_vec(&inv, &c.s);
@@ -1621,15 +1633,15 @@ fn misfit_scale(cfg: &SequentialConfig, c: &Cusum, m: usize) -> f64 {
     let sigma: [[f64; N_MODES]; N_MODES] =
         std::array::from_fn(|i| std::array::from_fn(|j| s2 * inv[i][j] + floor[i][j]));
     let Some(p) = spd_inverse(&pack(&sigma)) else {
-        return 1.0;
+        return 0.0;
     };
     let pt = mat_vec(&p, &theta);
     let whole: f64 = theta.iter().zip(&pt).map(|(a, b)| a * b).sum();
     let chi2 = whole - pt[m] * pt[m] / p[m][m];
     if chi2.is_finite() {
-        (chi2 / MISFIT_DOF).max(1.0).sqrt()
+        0.5 * chi2.max(0.0)
     } else {
-        1.0
+        0.0
     }
 }
 
@@ -1919,7 +1931,7 @@ mod tests {
         c.trips = 100;
         c.s[b] += 2.0;
         c.s[f] -= 2.0;
-        let (drift, se) = drifts(&cfg, &c, FaultMode::Motor);
+        let (drift, se, _) = drifts(&cfg, &c, FaultMode::Motor);
         assert!((drift[MOTOR] - 1.0).abs() < 1e-12, "{drift:?}");
         assert!((drift[b] - 0.02).abs() < 1e-9, "{drift:?}");
         assert!((drift[f] + 0.02).abs() < 1e-9, "{drift:?}");
@@ -2079,8 +2091,8 @@ mod tests {
         // signatures share, and its standard errors widen until they cover it.
         let cfg = unit_config();
         let exact = window(400, &[0.5, 0.0, 0.0]);
-        assert_eq!(misfit_scale(&cfg, &exact, MOTOR), 1.0);
-        let (d, se) = drifts(&cfg, &exact, FaultMode::Motor);
+        let (d, se, misfit) = drifts(&cfg, &exact, FaultMode::Motor);
+        assert!(misfit < 1e-9, "{misfit}");
         assert!((d[MOTOR] - 0.5).abs() < 1e-12 && (se[MOTOR] - 0.05).abs() < 1e-12);
 
         let departs = window(400, &[0.5, 0.0, -0.3]);
@@ -2089,9 +2101,16 @@ mod tests {
             (plain.0 - 0.5).abs() > 2.0 * plain.1,
             "the misfit must show: {plain:?}"
         );
-        let (d, se) = drifts(&cfg, &departs, FaultMode::Motor);
+        let (d, se, misfit) = drifts(&cfg, &departs, FaultMode::Motor);
         assert_eq!(d[MOTOR], plain.0);
-        assert!(se[MOTOR] > plain.1, "{} against {}", se[MOTOR], plain.1);
+        // Widened by the Birge ratio √(χ²/2) = √misfit.
+        assert!(misfit > 1.0);
+        assert!(
+            (se[MOTOR] / plain.1 - misfit.sqrt()).abs() < 1e-9,
+            "{} against {} (misfit {misfit})",
+            se[MOTOR],
+            plain.1
+        );
         assert!(
             (d[MOTOR] - 0.5).abs() < 2.0 * se[MOTOR],
             "drift {} ± {}",
@@ -2104,7 +2123,7 @@ mod tests {
             wander_cov: Some([0.0, 0.0, 0.0, 0.0, 0.0, 1.0]),
             ..cfg
         };
-        assert_eq!(misfit_scale(&wandering, &departs, MOTOR), 1.0);
+        assert!(misfit_llr(&wandering, &departs, MOTOR) <= 0.5 * MISFIT_DOF);
     }
 
     /// The first decision of a car whose trips, 2 minutes apart, stand at `level(k)` along

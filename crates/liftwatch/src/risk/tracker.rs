@@ -360,12 +360,15 @@ impl RiskTracker {
         let s = self.statistics(cfg, t);
         self.accumulate(cfg, &s);
         if let Some(seq) = &cfg.sequential {
-            let d = self.seq.push(seq, t, cfg.release_ratio);
+            let mut d = self.seq.push(seq, t, cfg.release_ratio);
             // While a change is held, its drift is the one measured on the changed trips, not
             // the long memory's lagged fraction of it.
             if d.ratio >= cfg.release_ratio && d.drift.iter().all(|v| v.is_finite()) {
                 self.last.drift = d.drift;
                 self.last.drift_se = d.drift_se;
+            } else {
+                // The drifts shown are the long memory's, which no misfit widened.
+                d.misfit = 0.0;
             }
             self.last.decision = d;
         }

@@ -271,6 +271,9 @@
     let s = `risk R = ${sig(r)} (advisory level ${sig(adv)}, alarm level ${sig(alm)})`;
     if (fin(v.cusum_ratio) && v.cusum_ratio >= 0.5) {
       s += `; the sequential test stands at G/h = ${v.cusum_ratio.toFixed(2)} (1 decides) over ${v.changed_trips} trips`;
+      if (fin(v.misfit) && v.misfit > 1) {
+        s += `; the trips the drifts are read from depart from one mode's signature (misfit ${v.misfit.toFixed(1)}), which widens their standard errors ${Math.sqrt(v.misfit).toFixed(1)} times`;
+      }
     }
     const [ok, refused] = v.trips || [];
     if (fin(ok)) s += `; ${ok} trips taken as machine evidence, ${fin(refused) ? refused : 0} refused as sensor-implausible`;

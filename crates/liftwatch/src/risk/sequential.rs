@@ -841,10 +841,10 @@ pub struct Decision {
     #[serde(with = "exact", default = "crate::exact::nan")]
     pub window_start: f64,
     /// Log-likelihood ratio of the three signatures together against the named mode's alone
-    /// on the trips the drifts are read from, χ²/2 ([`misfit_llr`]): how far those trips
-    /// depart from one mode's change. The drifts' standard errors are widened by
-    /// √(2·misfit/[`MISFIT_DOF`]) where that exceeds 1. 0 while no drifts are read (and in
-    /// decisions saved before it was kept).
+    /// on the trips the drifts are read from, χ²/2 of χ² on two degrees of freedom (three
+    /// signatures against one): how far those trips depart from one mode's change. The
+    /// drifts' standard errors are widened by √misfit where that exceeds 1 (the Birge ratio
+    /// √(χ²/2)). 0 while no drifts are read (and in decisions saved before it was kept).
     #[serde(with = "exact", default)]
     pub misfit: f64,
 }

@@ -1234,9 +1234,10 @@ impl Sequential {
     /// change point the recent trips show for signature `m`, when a level from that point on
     /// (none before it) explains the window better than its line θ + β·τ does, by
     /// [`ISOLATION_ODDS`]; `None` when the line stands. A ramp reads as a line; a step
-    /// decided hours into a window that healthy wander held open does not: a Kd step of
-    /// +25 % on the 40-floor car, decided by the GLR 2 hours in, read +16.6 ± 0.8 % on the
-    /// line of the motor's 10-hour CUSUM window.
+    /// decided hours into a window that healthy wander held open does not: a step of 4
+    /// standard errors after ten hours at +0.4 read 1.0 on the line (test
+    /// `a_step_after_hours_of_wander_reads_its_level_and_a_ramp_its_line`), and the
+    /// week-long suite's Kd steps of +5 % read +6.3 % where their step reads +5.6 %.
     fn step_beyond_line(&self, c: &Cusum, m: usize, s2: f64) -> Option<Cusum> {
         let sl = c.slope?;
         let k = PACKED_DIAG[m];

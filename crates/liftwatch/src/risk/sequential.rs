@@ -512,16 +512,8 @@ impl SequentialConfig {
                         });
                         (s / i, v / (i * i))
                     })
-                    .filter(|(y, v)| y.is_finite() && v.is_finite())
                     .collect();
-                if blocks.len() < 2 {
-                    return self.wander[m];
-                }
-                let n = blocks.len() as f64;
-                let mean = blocks.iter().map(|b| b.0).sum::<f64>() / n;
-                let spread = blocks.iter().map(|b| (b.0 - mean).powi(2)).sum::<f64>() / (n - 1.0);
-                let noise = blocks.iter().map(|b| b.1).sum::<f64>() / n;
-                (spread - noise).max(0.0).sqrt()
+                level_wander(&blocks).unwrap_or(self.wander[m])
             })
         })
     }
@@ -559,16 +551,10 @@ impl SequentialConfig {
                     });
                     (s / i, self.s2[m] / i)
                 })
-                .filter(|(y, v)| y.is_finite() && v.is_finite())
                 .collect();
-            if blocks.len() < 2 {
-                continue;
+            if let Some(w) = level_wander(&blocks) {
+                out[m] = w;
             }
-            let n = blocks.len() as f64;
-            let mean = blocks.iter().map(|b| b.0).sum::<f64>() / n;
-            let spread = blocks.iter().map(|b| (b.0 - mean).powi(2)).sum::<f64>() / (n - 1.0);
-            let noise = blocks.iter().map(|b| b.1).sum::<f64>() / n;
-            out[m] = (spread - noise).max(0.0).sqrt();
         }
         out
     }
@@ -1239,17 +1225,7 @@ impl Sequential {
     /// `a_step_after_hours_of_wander_reads_its_level_and_a_ramp_its_line`), and the
     /// week-long suite's Kd steps of +5 % read +6.3 % where their step reads +5.6 %.
     fn step_beyond_line(&self, c: &Cusum, m: usize, s2: f64) -> Option<Cusum> {
-        let sl = c.slope?;
-        let k = PACKED_DIAG[m];
-        let (a, b, d) = (c.w[k], sl.w1[k], sl.w2[k]);
-        let (s, s1) = (c.s[m], sl.s1[m]);
-        let det = a * d - b * b;
-        // The line's explained sum of squares along m alone: (s, s1)·[[a, b], [b, d]]⁻¹·(s, s1).
-        let line = if det > 0.0 {
-            (d * s * s - 2.0 * b * s * s1 + a * s1 * s1) / det
-        } else {
-            0.0
-        };
+        let line = alone_line(c, m).map_or(0.0, |l| l.ess);
         self.latest_step(c, m, true)
             .filter(|b| b.0 - line >= change_margin(s2))
             .map(|b| b.1)
@@ -1281,6 +1257,25 @@ impl Sequential {
     pub fn g(&self) -> [[f64; N_SIZES]; N_MODES] {
         self.bank.map(|row| row.map(|c| c.g))
     }
+}
+
+/// The sd of a level between blocks beyond their own noise, √max(0, mean (y_b − ȳ)² −
+/// mean v_b) over the blocks' levels y_b and noise variances v_b (those not finite left
+/// out); `None` with fewer than two blocks.
+fn level_wander(blocks: &[(f64, f64)]) -> Option<f64> {
+    let blocks: Vec<(f64, f64)> = blocks
+        .iter()
+        .copied()
+        .filter(|(y, v)| y.is_finite() && v.is_finite())
+        .collect();
+    if blocks.len() < 2 {
+        return None;
+    }
+    let n = blocks.len() as f64;
+    let mean = blocks.iter().map(|b| b.0).sum::<f64>() / n;
+    let spread = blocks.iter().map(|b| (b.0 - mean).powi(2)).sum::<f64>() / (n - 1.0);
+    let noise = blocks.iter().map(|b| b.1).sum::<f64>() / n;
+    Some((spread - noise).max(0.0).sqrt())
 }
 
 /// The sum of squares a rise of one level explains on trips of score sum `s` and
@@ -1419,11 +1414,7 @@ struct Wander {
 
 impl Wander {
     fn new(w: &[[f64; N_MODES]; N_MODES], sigma: &[f64; 6], c: &Cusum) -> Wander {
-        // The blocks wander independently of each other: over a window of n trips the
-        // wander's share of S is B/n of one block's (B = WANDER_BLOCK_TRIPS), all of it in a
-        // window within one block.
-        let blocks = (f64::from(c.trips) / WANDER_BLOCK_TRIPS as f64).max(1.0);
-        let sig = unpack(sigma).map(|row| row.map(|v| v / blocks));
+        let sig = window_wander(sigma, c.trips);
         let wsw = std::array::from_fn(|i| {
             std::array::from_fn(|j| {
                 (0..N_MODES)
@@ -1476,6 +1467,14 @@ impl Wander {
         let rub = (mbb * gf - mbf * gb) / det;
         drag * gb + rub * gf - gf.max(0.0).powi(2) / mff
     }
+}
+
+/// The joint wander Σ_w (packed) as it moves the mean coefficients of a window of `trips`
+/// trips: the blocks of B = [`WANDER_BLOCK_TRIPS`] wander independently of each other, so
+/// a window of n trips carries B/n of one block's, all of it within one block.
+fn window_wander(sigma: &[f64; 6], trips: u32) -> [[f64; N_MODES]; N_MODES] {
+    let blocks = (f64::from(trips) / WANDER_BLOCK_TRIPS as f64).max(1.0);
+    unpack(sigma).map(|row| row.map(|v| v / blocks))
 }
 
 /// The window-limited GLR of a change of unknown size along each signature alone (Lai,
@@ -1612,13 +1611,12 @@ fn misfit_llr(cfg: &SequentialConfig, c: &Cusum, m: usize) -> f64 {
     };
     let s2 = cfg.largest_s2();
     let theta = mat_vec(&inv, &c.s);
-    let blocks = (f64::from(c.trips) / WANDER_BLOCK_TRIPS as f64).max(1.0);
     let floor: [[f64; N_MODES]; N_MODES] = match &cfg.wander_cov {
         Some(w) => {
-            let w = unpack(w);
+            let w = window_wander(w, c.trips);
             std::array::from_fn(|i| {
                 std::array::from_fn(|j| {
-                    w[i][j] / blocks
+                    w[i][j]
                         + if i == j {
                             cfg.reference_se[i] * cfg.reference_se[i]
                         } else {
@@ -1679,20 +1677,45 @@ fn alone_drift(cfg: &SequentialConfig, c: &Cusum, m: usize) -> (f64, f64) {
     let k = PACKED_DIAG[m];
     let (a, s) = (c.w[k], c.s[m]);
     let se = |var: f64| alone_se(cfg, m, var);
-    if let Some(sl) = c.slope.filter(SlopeSums::spans_line) {
-        let (b, d, t) = (sl.w1[k], sl.w2[k], sl.tau_end);
-        let det = a * d - b * b;
-        if det > 0.0 {
-            let theta = (d * s - b * sl.s1[m]) / det;
-            let beta = (a * sl.s1[m] - b * s) / det;
-            return (theta + beta * t, se((d - 2.0 * t * b + t * t * a) / det));
-        }
+    if let Some(line) = alone_line(c, m) {
+        return (line.level, se(line.var));
     }
     if a > 0.0 {
         (s / a, se(1.0 / a))
     } else {
         (f64::NAN, f64::NAN)
     }
+}
+
+/// The line θ + β·τ of signature `m` alone through a window's trips (τ days since its
+/// first trip), when its time spans one ([`SLOPE_MIN_DAYS`]) and its 2×2 normal equations
+/// are regular.
+struct AloneLine {
+    /// θ + β·τ at the window's last trip.
+    level: f64,
+    /// Its variance per unit s².
+    var: f64,
+    /// The sum of squares the line explains, (S, S_τ)·N⁻¹·(S, S_τ) = θ·S + β·S_τ.
+    ess: f64,
+}
+
+/// [`AloneLine`] of signature `m` on window `c`; `None` without a line.
+fn alone_line(c: &Cusum, m: usize) -> Option<AloneLine> {
+    let sl = c.slope.filter(SlopeSums::spans_line)?;
+    let k = PACKED_DIAG[m];
+    let (a, s) = (c.w[k], c.s[m]);
+    let (b, d, t) = (sl.w1[k], sl.w2[k], sl.tau_end);
+    let det = a * d - b * b;
+    if det.is_nan() || det <= 0.0 {
+        return None;
+    }
+    let theta = (d * s - b * sl.s1[m]) / det;
+    let beta = (a * sl.s1[m] - b * s) / det;
+    Some(AloneLine {
+        level: theta + beta * t,
+        var: (d - 2.0 * t * b + t * t * a) / det,
+        ess: theta * s + beta * sl.s1[m],
+    })
 }
 
 /// The drifts of the two other signatures on what the named mode `m` leaves of a window: the

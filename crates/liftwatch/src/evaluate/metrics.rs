@@ -23,15 +23,18 @@
 use serde::Serialize;
 
 use super::charts::{Chart, ChartCalibration};
+use super::floor::{floor_delay_s, oracle_threshold};
 use super::trips::{TripGrouper, TripSummary};
 use super::{DAY_S, PERSISTENT_TRIPS, YEAR_DAYS};
 use crate::alarm::{Event, Evidence, Level};
 use crate::align::SampleSink;
 use crate::error::{Error, Result};
+use crate::fit::FittedModel;
 use crate::ingest::Signal;
 use crate::mode::{FaultMode, MACHINE_MODES};
 use crate::monitor::{Monitor, MonitorRow};
 use crate::operation::OperationEvent;
+use crate::risk::DriftScale;
 use crate::sample::Sample;
 use crate::sim::logger::RawAligner;
 use crate::sim::{self, SimSink, TruthRow};
@@ -216,17 +219,50 @@ impl Metrics<'_> {
 
     /// (reported − true)/SE of the true machine mode's drift at the event `e`.
     fn drift_z(&self, e: &Event) -> Option<f64> {
-        let truth_mode = self.truth?;
-        let (got, se) = reported_drift(&e.evidence, truth_mode)?;
-        let fx = self.scenario.effects_at(e.time, self.f_c);
-        let truth = match truth_mode {
-            FaultMode::Motor => 100.0 * (fx.kd_factor - 1.0),
-            FaultMode::Friction => self.friction_n * (fx.friction_factor - 1.0),
-            // The brake: `reported_drift` has nothing for the modes beyond the three.
-            _ => fx.brake_drag_n,
-        };
-        let z = (got - truth) / se;
+        let (got, se) = reported_drift(&e.evidence, self.truth?)?;
+        let z = (got - self.true_drift(e.time)?) / se;
         z.is_finite().then_some(z)
+    }
+
+    /// The true machine mode's drift at `t` in the units an event reports it (Kd %, friction
+    /// N at the rated speed, brake drag N); `None` on a healthy or sensor case.
+    fn true_drift(&self, t: f64) -> Option<f64> {
+        let fx = self.scenario.effects_at(t, self.f_c);
+        match self.truth? {
+            FaultMode::Motor => Some(100.0 * (fx.kd_factor - 1.0)),
+            FaultMode::Friction => Some(self.friction_n * (fx.friction_factor - 1.0)),
+            FaultMode::Brake => Some(fx.brake_drag_n),
+            FaultMode::Sensor | FaultMode::Unknown | FaultMode::Door => None,
+        }
+    }
+
+    /// The oracle floor of this case's delay (days, [`super::floor`]): the CUSUM of the true
+    /// mode's signature that knows the drift at every trip, with `model`'s trip noise and
+    /// false-advisory budget. `None` on a healthy or sensor case, for a model without the
+    /// sequential decision or its calibration, and when the trips never gather the evidence.
+    pub(super) fn floor_delay_days(&self, model: &FittedModel) -> Option<f64> {
+        let onset = self.onset?;
+        let mode = self.truth.filter(|m| m.is_machine())?;
+        let seq = model.risk.sequential.as_ref()?;
+        let report = model.calibration.as_ref()?;
+        let h = oracle_threshold(
+            report.trips_per_year,
+            report.target_false_advisories_per_year,
+        )?;
+        // The reported unit per unit of the signature's coefficient (`crate::risk::DriftScale`).
+        let scale = DriftScale::of(&model.hybrid);
+        let unit = match mode {
+            FaultMode::Motor => 100.0,
+            FaultMode::Friction => scale.friction_n,
+            _ => scale.brake_n,
+        };
+        let m = mode as usize;
+        let per_coefficient = (seq.info[m] / seq.s2[m]).sqrt();
+        let size = |t: f64| {
+            self.true_drift(t)
+                .map_or(0.0, |d| d / unit * per_coefficient)
+        };
+        floor_delay_s(self.sink.trips.iter().map(|t| t.end), onset, h, size).map(|s| s / DAY_S)
     }
 
     /// The threshold method: detection at its first alarm after the onset, flicker and

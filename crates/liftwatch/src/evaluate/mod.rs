@@ -39,6 +39,10 @@
 //! the onset (or over a whole healthy run) scaled to an elevator-year, misses, the fault mode
 //! named at detection, and for the threshold method its flicker count: alarm activations, per
 //! trip, after the onset and before the alarm holds for [`PERSISTENT_TRIPS`] trips in a row.
+//! Per machine fault, the oracle floor of its delay ([`floor`]): when the CUSUM that knows the
+//! fault's mode and size at every trip would detect it. Over the suite, liftwatch's delays
+//! against the threshold method's and the floor's ([`compare_delays`]; the text table's last
+//! lines, and the figure `evaluate` draws beside `evaluation.json`).
 //!
 //! Mode implied by the threshold method: the voltage limit is the conventional motor check and
 //! the friction-force limit the lubrication check; after the onset the limit that was exceeded
@@ -51,10 +55,12 @@
 //!
 //! The rooms: [`charts`] (CUSUM, EWMA, their calibration), [`trips`] (monitor rows to trip
 //! means), [`suite`] (fleet, cases, training, the monitored runs), [`metrics`] (per method
-//! and case, and their aggregates), [`table`](mod@table) (the text summary); this module runs it all.
+//! and case), [`floor`] (the oracle floor of a delay), [`aggregate`] (per method and mode,
+//! and the delays compared), [`table`](mod@table) (the text summary); this module runs it all.
 
 pub mod aggregate;
 pub mod charts;
+pub mod floor;
 pub mod metrics;
 pub mod suite;
 pub mod table;
@@ -66,7 +72,7 @@ use std::time::Instant;
 
 use serde::Serialize;
 
-pub use aggregate::{aggregate, Aggregate};
+pub use aggregate::{aggregate, compare_delays, Aggregate, DelayComparison, Versus};
 pub use charts::{
     block_bootstrap, calibrate_limit, cusum_arl, cusum_h_for_arl, ChartCalibration, ChartKind,
     Cusum, Ewma, BLOCK_TRIPS, CALIBRATION_YEARS, CUSUM_K, EWMA_LAMBDA, TARGET_FALSE_PER_YEAR,
@@ -104,6 +110,8 @@ pub struct Evaluation {
     pub cases: Vec<CaseResult>,
     /// Per method and true mode.
     pub aggregates: Vec<Aggregate>,
+    /// liftwatch's delays against the threshold method's and the oracle floor's.
+    pub delays: DelayComparison,
     /// Wall time (s).
     pub seconds: f64,
 }
@@ -227,6 +235,7 @@ pub fn run_suite(cfg: &SuiteConfig, progress: &(dyn Fn(&str) + Sync)) -> Result<
         },
         elevators,
         aggregates: aggregate(&out),
+        delays: compare_delays(&out),
         cases: out,
         seconds: clock.elapsed().as_secs_f64(),
     })

@@ -361,6 +361,10 @@ pub struct CaseResult {
     pub late_mean_z: f64,
     /// Results of liftwatch, threshold, CUSUM, EWMA in that order.
     pub methods: Vec<MethodResult>,
+    /// The oracle floor of a machine fault's delay (days, [`super::floor`]): when the CUSUM
+    /// that knows the fault's mode and size at every trip would detect it; `None` on healthy
+    /// and sensor cases, and when the run never gathers that evidence.
+    pub floor_delay_days: Option<f64>,
     /// Wall time of the case (s).
     pub seconds: f64,
 }
@@ -442,6 +446,7 @@ pub fn run_case(case: &Case, trained: &Trained, cfg: &SuiteConfig) -> Result<Cas
             z.iter().sum::<f64>() / z.len().max(1) as f64
         },
         methods,
+        floor_delay_days: ctx.floor_delay_days(model),
         seconds: clock.elapsed().as_secs_f64(),
     })
 }

@@ -105,6 +105,27 @@ fn strong_fault_is_detected_and_healthy_run_stays_quiet() {
     assert!(th.flicker.is_some());
     assert!(method(&f, "cusum").flicker.is_none());
 
+    // The oracle floor: the CUSUM that knows the doubled friction at every trip decides on
+    // the first trips after the onset (3.6 trip standard errors a trip: two trips), which,
+    // the onset being at midnight, end a little after 03:00; a healthy run has none.
+    assert_eq!(h.floor_delay_days, None);
+    let floor = f
+        .floor_delay_days
+        .expect("a doubled friction has an oracle floor");
+    assert!(
+        (0.0..0.25).contains(&floor) && floor <= delay,
+        "floor {floor} d, delay {delay} d"
+    );
+    let d = evaluate::compare_delays(&[h.clone(), f.clone()]);
+    let v = d
+        .floor
+        .expect("one machine fault with a floor was detected");
+    assert_eq!(v.cases, 1);
+    assert_eq!(
+        (v.liftwatch_median_days, v.other_median_days),
+        (delay, floor)
+    );
+
     let agg = evaluate::aggregate(&[h, f]);
     let lw_fric = agg
         .iter()

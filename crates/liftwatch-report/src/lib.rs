@@ -46,6 +46,7 @@
 //!
 //! Plotting lives in this crate so that the library stays free of drawing dependencies.
 
+mod evaluation;
 mod figures;
 mod html;
 pub mod plot;
@@ -53,6 +54,7 @@ mod section;
 
 use std::path::{Path, PathBuf};
 
+pub use evaluation::write_evaluation_figure;
 use liftwatch::alarm::Event;
 use liftwatch::features::Features;
 use liftwatch::fit::FittedModel;

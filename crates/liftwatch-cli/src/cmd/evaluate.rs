@@ -112,11 +112,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let path = args.out.join("evaluation.json");
     let json = serde_json::to_vec_pretty(&ev).context("serialising the evaluation")?;
     liftwatch::output::write_atomic(&path, &json)?;
+    let figure = liftwatch_report::write_evaluation_figure(&args.out, &ev)
+        .context("drawing the evaluation's figure")?;
     let seconds = clock.elapsed().as_secs_f64();
     ui.say(format_args!(
-        "evaluate: {} cases in {seconds:.0} s, wrote {}",
+        "evaluate: {} cases in {seconds:.0} s, wrote {}{}",
         ev.cases.len(),
-        path.display()
+        path.display(),
+        figure.map_or(String::new(), |[svg, _]| format!(
+            " and {} (and .png): each machine fault's delay against the oracle floor and the threshold method",
+            svg.display()
+        ))
     ));
     ui.json(&serde_json::json!({
         "command": "evaluate",
@@ -124,5 +130,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         "cases": ev.cases.len(),
         "seconds": seconds,
         "aggregates": serde_json::to_value(&ev.aggregates)?,
+        "delays": serde_json::to_value(ev.delays)?,
     }))
 }

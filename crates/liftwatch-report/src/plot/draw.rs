@@ -256,7 +256,16 @@ fn draw_mesh<'a, DB: DrawingBackend + 'a>(
     let (pw, _) = chart.plotting_area().dim_in_pixel();
     // The y labels' decimals follow the data range, headroom excluded.
     let (x_span, y_span) = (f.x1 - f.x0, p.y.range().1 - f.y0);
-    let xf = |v: &f64| fmt_tick(*v, x_span);
+    // A log x axis is labelled at its decades (plotters places the labels in log10 units).
+    let xf = |v: &f64| {
+        if !p.x.log {
+            fmt_tick(*v, x_span)
+        } else if (v - v.round()).abs() < 1e-9 {
+            fmt_decade(v.round())
+        } else {
+            String::new()
+        }
+    };
     // Own ticks (drawn below) for custom labels and log axes; plotters' for the rest.
     let own: Vec<(f64, String)> = if !p.y_ticks.is_empty() {
         p.y_ticks

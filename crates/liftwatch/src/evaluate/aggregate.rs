@@ -198,36 +198,73 @@ pub struct DelayComparison {
     pub floor: Option<Versus>,
 }
 
-/// The suite's [`DelayComparison`]: liftwatch is the first method of every case, the
-/// threshold method the second.
-pub fn compare_delays(results: &[CaseResult]) -> DelayComparison {
+/// One detected machine fault's delay beside a reference's (days after the onset).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct DelayPair {
+    /// liftwatch's delay.
+    pub liftwatch_days: f64,
+    /// The reference's: the oracle floor, or the threshold method's first alarm.
+    pub other_days: f64,
+    /// The true mode.
+    pub mode: FaultMode,
+    /// Whether the threshold method raised no false signal in any run of the case's elevator
+    /// (before an onset or on its healthy run).
+    pub threshold_quiet: bool,
+}
+
+/// The machine faults liftwatch detected, beside the oracle floor (where the case has one)
+/// and beside the threshold method (where it detected them too): what [`DelayComparison`]
+/// summarises and the evaluation's figure draws.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct DelayPairs {
+    /// Beside the oracle floor.
+    pub floor: Vec<DelayPair>,
+    /// Beside the threshold method.
+    pub threshold: Vec<DelayPair>,
+}
+
+/// The suite's [`DelayPairs`]: liftwatch is the first method of every case, the threshold
+/// method the second.
+pub fn delay_pairs(results: &[CaseResult]) -> DelayPairs {
     let delay = |c: &CaseResult, i: usize| c.methods.get(i).and_then(|m| m.delay_days);
-    let noisy = |e: usize| {
-        results
+    let quiet = |e: usize| {
+        !results
             .iter()
             .filter(|c| c.case.elevator == e)
             .any(|c| c.methods.get(1).is_some_and(|m| m.false_signals > 0))
     };
-    let faults = || {
-        results
-            .iter()
-            .filter(|c| c.case.truth.is_some_and(FaultMode::is_machine))
+    let mut out = DelayPairs::default();
+    for c in results {
+        let (Some(mode), Some(ours)) = (c.case.truth.filter(|m| m.is_machine()), delay(c, 0))
+        else {
+            continue;
+        };
+        let pair = |other_days| DelayPair {
+            liftwatch_days: ours,
+            other_days,
+            mode,
+            threshold_quiet: quiet(c.case.elevator),
+        };
+        out.floor.extend(c.floor_delay_days.map(pair));
+        out.threshold.extend(delay(c, 1).map(pair));
+    }
+    out
+}
+
+/// The suite's [`DelayComparison`], from its [`delay_pairs`].
+pub fn compare_delays(results: &[CaseResult]) -> DelayComparison {
+    let p = delay_pairs(results);
+    let of = |pairs: &mut dyn Iterator<Item = &DelayPair>| {
+        Versus::of(
+            &pairs
+                .map(|p| (p.liftwatch_days, p.other_days))
+                .collect::<Vec<_>>(),
+        )
     };
-    let both: Vec<(usize, (f64, f64))> = faults()
-        .filter_map(|c| Some((c.case.elevator, (delay(c, 0)?, delay(c, 1)?))))
-        .collect();
-    let quiet: Vec<(f64, f64)> = both
-        .iter()
-        .filter(|(e, _)| !noisy(*e))
-        .map(|p| p.1)
-        .collect();
-    let floor: Vec<(f64, f64)> = faults()
-        .filter_map(|c| Some((delay(c, 0)?, c.floor_delay_days?)))
-        .collect();
     DelayComparison {
-        threshold: Versus::of(&both.iter().map(|p| p.1).collect::<Vec<_>>()),
-        threshold_quiet: Versus::of(&quiet),
-        floor: Versus::of(&floor),
+        threshold: of(&mut p.threshold.iter()),
+        threshold_quiet: of(&mut p.threshold.iter().filter(|p| p.threshold_quiet)),
+        floor: of(&mut p.floor.iter()),
     }
 }
 
@@ -239,22 +276,8 @@ mod tests {
 
     fn method(name: &'static str, delay: Option<f64>, false_signals: usize) -> MethodResult {
         MethodResult {
-            method: name,
             delay_days: delay,
-            severity_at_detection: delay.map(|_| 1.0),
-            false_signals,
-            exposure_days: 3.0,
-            false_per_year: false_signals as f64 / 3.0 * YEAR_DAYS,
-            mode: None,
-            mode_correct: None,
-            flicker: None,
-            persistent_delay_days: None,
-            drift_z: None,
-            drift_z_alarm: None,
-            leak_z: None,
-            door_advisories: None,
-            outages: None,
-            events: Vec::new(),
+            ..MethodResult::bare(name, false_signals, 3.0)
         }
     }
 
@@ -332,6 +355,16 @@ mod tests {
         let f = d.floor.unwrap();
         assert_eq!((f.cases, f.median_ratio), (3, Some(2.0)));
         assert_eq!(compare_delays(&results[3..4]).floor, None);
+        let pairs = delay_pairs(&results);
+        assert_eq!(pairs.threshold.len(), 3);
+        assert_eq!(
+            pairs
+                .threshold
+                .iter()
+                .map(|p| p.threshold_quiet)
+                .collect::<Vec<_>>(),
+            [true, true, false]
+        );
         assert_eq!(Versus::of(&[(1.0, 0.0)]).unwrap().median_ratio, None);
     }
 }

@@ -89,6 +89,31 @@ pub struct MethodResult {
     pub events: Vec<Event>,
 }
 
+impl MethodResult {
+    /// The result of `method` with `false_signals` over `exposure_days` and nothing detected
+    /// or named yet: what each method's metrics fill in.
+    pub fn bare(method: &'static str, false_signals: usize, exposure_days: f64) -> MethodResult {
+        MethodResult {
+            method,
+            delay_days: None,
+            severity_at_detection: None,
+            false_signals,
+            exposure_days,
+            false_per_year: false_signals as f64 / (exposure_days / YEAR_DAYS),
+            mode: None,
+            mode_correct: None,
+            flicker: None,
+            persistent_delay_days: None,
+            drift_z: None,
+            drift_z_alarm: None,
+            leak_z: None,
+            door_advisories: None,
+            outages: None,
+            events: Vec::new(),
+        }
+    }
+}
+
 /// What the metrics of one case read: its timing, its truth and what its monitors kept.
 pub(super) struct Metrics<'a> {
     /// Onset time (s); None when healthy.
@@ -122,22 +147,9 @@ impl Metrics<'_> {
             _ => (None, None),
         };
         MethodResult {
-            method,
             delay_days,
             severity_at_detection,
-            false_signals,
-            exposure_days: self.exposure_days,
-            false_per_year: false_signals as f64 / (self.exposure_days / YEAR_DAYS),
-            mode: None,
-            mode_correct: None,
-            flicker: None,
-            persistent_delay_days: None,
-            drift_z: None,
-            drift_z_alarm: None,
-            leak_z: None,
-            door_advisories: None,
-            outages: None,
-            events: Vec::new(),
+            ..MethodResult::bare(method, false_signals, self.exposure_days)
         }
     }
 

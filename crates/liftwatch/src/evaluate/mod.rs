@@ -72,7 +72,10 @@ use std::time::Instant;
 
 use serde::Serialize;
 
-pub use aggregate::{aggregate, compare_delays, Aggregate, DelayComparison, Versus};
+pub use aggregate::{
+    aggregate, compare_delays, delay_pairs, Aggregate, DelayComparison, DelayPair, DelayPairs,
+    Versus,
+};
 pub use charts::{
     block_bootstrap, calibrate_limit, cusum_arl, cusum_h_for_arl, ChartCalibration, ChartKind,
     Cusum, Ewma, BLOCK_TRIPS, CALIBRATION_YEARS, CUSUM_K, EWMA_LAMBDA, TARGET_FALSE_PER_YEAR,

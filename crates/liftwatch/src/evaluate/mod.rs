@@ -55,7 +55,7 @@
 //!
 //! The rooms: [`charts`] (CUSUM, EWMA, their calibration), [`trips`] (monitor rows to trip
 //! means), [`suite`] (fleet, cases, training, the monitored runs), [`metrics`] (per method
-//! and case), [`floor`] (the oracle floor of a delay), [`aggregate`] (per method and mode,
+//! and case), [`floor`] (the oracle floor of a delay), [`aggregate`](mod@aggregate) (per method and mode,
 //! and the delays compared), [`table`](mod@table) (the text summary); this module runs it all.
 
 pub mod aggregate;

@@ -386,6 +386,36 @@ fn fail_on_turns_the_highest_level_into_the_exit_status() {
     );
 }
 
+/// `evaluate` writes `evaluation.json` with each machine fault's oracle floor, its figure
+/// beside it, and the delays against the references in its `--json` summary.
+#[test]
+fn evaluate_writes_the_floor_the_delays_and_their_figure() {
+    let dir = Dir::new("evaluate");
+    let out = dir.path("eval");
+    let j = ok(&["evaluate", "--quick", "--out", s(&out), "--json"]).json();
+    assert_eq!(j["command"], "evaluate");
+    let floor = &j["delays"]["floor"];
+    assert!(floor["cases"].as_u64().expect("floor cases") >= 1, "{j}");
+    assert!(
+        floor["other_median_days"].as_f64().expect("floor days") > 0.0,
+        "{j}"
+    );
+    let text = std::fs::read_to_string(out.join("evaluation.json")).expect("evaluation.json");
+    let ev: serde_json::Value = serde_json::from_str(&text).expect("evaluation.json is JSON");
+    let cases = ev["cases"].as_array().expect("cases");
+    for c in cases {
+        let machine = matches!(c["truth"].as_str(), Some("motor" | "brake" | "friction"));
+        assert_eq!(
+            c["floor_delay_days"].is_f64(),
+            machine,
+            "a floor exactly for the machine faults: {c}"
+        );
+    }
+    let svg = std::fs::read_to_string(out.join("evaluation.svg")).expect("evaluation.svg");
+    assert!(svg.contains("oracle floor"), "the figure's left panel");
+    assert!(std::fs::metadata(out.join("evaluation.png")).is_ok_and(|m| m.len() > 1000));
+}
+
 #[test]
 fn json_is_one_object_on_stdout_and_people_read_stderr() {
     let fx = fixture();

@@ -35,15 +35,17 @@ pub fn floor_delay_s(
         if d.is_finite() {
             llr += 0.5 * d * d;
         }
-        if llr >= h {
+        // Some evidence must have gathered: with h at 0 (a budget of a false advisory per
+        // trip or more) no change is still no detection.
+        if llr >= h && llr > 0.0 {
             return Some(t - onset);
         }
     }
     None
 }
 
-/// h = ln(ARL0) of a budget of `per_year` false advisories at `trips_per_year` trips; `None`
-/// when either is not a positive number.
+/// h = ln(ARL0) of a budget of `per_year` false advisories at `trips_per_year` trips (0 for
+/// a budget of one a trip or more); `None` when either is not a positive number.
 pub fn oracle_threshold(trips_per_year: f64, per_year: f64) -> Option<f64> {
     (trips_per_year > 0.0 && per_year > 0.0 && (trips_per_year / per_year).is_finite())
         .then(|| (trips_per_year / per_year).ln().max(0.0))
@@ -90,6 +92,10 @@ mod tests {
         assert!((n - (6.0 * h / (a * a)).cbrt()).abs() < 2.0, "{n}");
         assert_eq!(floor_delay_s(trips(), onset, h, |_| 0.0), None);
         assert_eq!(floor_delay_s(trips(), onset, h, |_| f64::NAN), None);
+        let none = oracle_threshold(1.0, 2.0).unwrap();
+        assert_eq!(none, 0.0);
+        assert_eq!(floor_delay_s(trips(), onset, none, |_| 0.0), None);
+        assert_eq!(floor_delay_s(trips(), onset, none, |_| 0.1), Some(1.0));
         assert_eq!(oracle_threshold(0.0, 1.0), None);
         assert_eq!(oracle_threshold(1e5, 0.0), None);
     }

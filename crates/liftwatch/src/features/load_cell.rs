@@ -106,7 +106,8 @@ fn fit_round(series: &AlignedSeries, cfg: &FeatureConfig) -> Result<FeatureConfi
         .windows(2)
         .filter(|w| w[1].s != 0 && (0.0..=MAX_STEP_S).contains(&(w[1].time - w[0].time)))
         .map(|w| w[1].time - w[0].time)
-        .sum();
+        // From +0.0: std's float `sum` starts at -0.0, which an empty log printed as "-0 s".
+        .fold(0.0, |a, b| a + b);
     let mut normal = Normal::holding(cfg.load_cell_load_gain);
     let mut used_trips = 0usize;
     let mut i = 1;
@@ -374,5 +375,9 @@ mod tests {
             matches!(err, Error::TooLittleMotion { trips: 2, .. }),
             "{err}"
         );
+        // A log that never moves says so without a negative zero.
+        let still = day(&[], 0.15, 3);
+        let err = fit_load_cell(&still.series, &config()).expect_err("no trip at all");
+        assert!(err.to_string().contains(": 0 s moving in 0 trips"), "{err}");
     }
 }

@@ -711,7 +711,7 @@ pub struct SlopeSums {
 }
 
 /// The sums beyond [`SlopeSums`]' that the curve θ + β·τ + γ·τ² of one signature alone
-/// needs ([`alone_curve`]): its 3×3 normal equations take Σ τᵏ·x_m² for k up to 4 and
+/// needs (`alone_curve`): its 3×3 normal equations take Σ τᵏ·x_m² for k up to 4 and
 /// Σ τᵏ·score_m for k up to 2.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct CurveSums {
@@ -1101,7 +1101,7 @@ impl Sequential {
                 None => c,
             };
             let since = if c.slope.is_some_and(|sl| sl.spans_line()) {
-                self.step_beyond_line(c, m, cfg.s2[m])
+                self.step_beyond_trend(c, m, cfg.s2[m])
             } else {
                 self.since_change(c, m, cfg.s2[m])
             };
@@ -1254,7 +1254,7 @@ impl Sequential {
     /// standard errors after ten hours at +0.4 read 1.0 on the line (test
     /// `a_step_after_hours_of_wander_reads_its_level_and_a_ramp_its_line`), and the
     /// week-long suite's Kd steps of +5 % read +6.3 % where their step reads +5.6 %.
-    fn step_beyond_line(&self, c: &Cusum, m: usize, s2: f64) -> Option<Cusum> {
+    fn step_beyond_trend(&self, c: &Cusum, m: usize, s2: f64) -> Option<Cusum> {
         let trend = alone_trend(c, m).map_or(0.0, |l| l.ess);
         self.latest_step(c, m, true)
             .filter(|b| b.0 - trend >= change_margin(s2))
@@ -1750,7 +1750,7 @@ struct AloneTrend {
 }
 
 /// [`AloneTrend`] of signature `m` on window `c` that a step among its recent trips is weighed
-/// against ([`Sequential::step_beyond_line`]): the curve θ + β·τ + γ·τ² ([`alone_curve`])
+/// against ([`Sequential::step_beyond_trend`]): the curve θ + β·τ + γ·τ² ([`alone_curve`])
 /// where the window keeps its sums and they are regular, else the line θ + β·τ
 /// ([`alone_line`]); `None` without either.
 fn alone_trend(c: &Cusum, m: usize) -> Option<AloneTrend> {
@@ -1766,14 +1766,14 @@ fn alone_curve(c: &Cusum, m: usize) -> Option<AloneTrend> {
     let normal = [c.w[k], sl.w1[k], sl.w2[k], sl.w2[k], cu.w3[m], cu.w4[m]];
     let inv = spd_inverse(&normal)?;
     let rhs = [c.s[m], sl.s1[m], cu.s2[m]];
-    let coef = mat_vec(&inv, &rhs);
     let t = sl.tau_end;
     let e = [1.0, t, t * t];
-    let ie = mat_vec(&inv, &e);
+    // With (θ, β, γ) = N⁻¹·rhs: the level is eᵀN⁻¹rhs, its variance eᵀN⁻¹e and the sum it
+    // explains rhsᵀN⁻¹rhs.
     Some(AloneTrend {
-        level: coef[0] + coef[1] * t + coef[2] * t * t,
-        var: e.iter().zip(&ie).map(|(a, b)| a * b).sum(),
-        ess: coef.iter().zip(&rhs).map(|(a, b)| a * b).sum(),
+        level: form(&inv, &e, &rhs),
+        var: form(&inv, &e, &e),
+        ess: form(&inv, &rhs, &rhs),
     })
 }
 
@@ -1787,8 +1787,9 @@ fn alone_curve(c: &Cusum, m: usize) -> Option<AloneTrend> {
 /// mixture). v_d is the variance of d where the line is right: the curve nests the line, so
 /// it is the difference of their variances per unit s², times the noise and the wander that
 /// moves within the window ([`moving_wander`]). A bend well beyond it, a ramp that began
-/// inside the window, reads as the curve; a bend within it stays near the line. The curve alone read a Kd step of +10 % 2.2 standard errors low on a day of
-/// synthetic trips whose Kd swings ±3 % a day with the temperature (test
+/// inside the window, reads as the curve; a bend within it stays near the line. The curve
+/// alone read a Kd step of +10 % 2.2 standard errors low on a day of synthetic trips whose
+/// Kd swings ±3 % a day with the temperature (test
 /// `a_step_is_decided_within_tens_of_trips_with_its_mode_and_size`).
 fn bend_shrunk(line: (f64, f64), curve: (f64, f64), v_d: f64) -> (f64, f64) {
     let d = curve.0 - line.0;

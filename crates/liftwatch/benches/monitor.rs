@@ -20,7 +20,7 @@ use liftwatch::align::{read_series, AlignConfig};
 use liftwatch::features::{FeatureConfig, FeatureTracker};
 use liftwatch::fit::FittedModel;
 use liftwatch::model::{HybridModel, PhysParams, ResidualNet, ResidualScales, TrainConfig};
-use liftwatch::monitor::{Method, Monitor, RowWriter};
+use liftwatch::monitor::{Method, Monitor, MonitorRow, RowWriter};
 use liftwatch::residual::PredictionCache;
 use liftwatch::rng::Rng;
 use liftwatch::sim::{simulate, SimConfig};
@@ -54,15 +54,17 @@ fn median3(mut f: impl FnMut() -> f64) -> f64 {
 }
 
 /// Seconds of the whole monitor step of `method` over `samples` (median of three runs), as
-/// a fresh monitor runs it: every sample pushed, the held rows finished.
+/// a fresh monitor runs it: every sample pushed into one reused row (the streaming path,
+/// [`Monitor::push_into`]), the held rows finished.
 fn step_secs(model: &FittedModel, method: Method, samples: &[Sample]) -> f64 {
     median3(|| {
         let start = Instant::now();
         let mut m = Monitor::new(model, method);
         let mut acc = 0.0;
+        let mut row = MonitorRow::EMPTY;
         for x in samples {
-            if let Some(r) = m.push(x) {
-                acc += r.risk;
+            if m.push_into(x, &mut row) {
+                acc += row.risk;
             }
         }
         black_box(acc);

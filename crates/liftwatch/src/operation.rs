@@ -627,6 +627,59 @@ fn floor_to_i64(q: f64) -> i64 {
     }
 }
 
+/// Bins a [`BinMemo`] remembers: 0 to 2³⁰, where b·w is exact for the day's 86,400 s
+/// (below 2⁵³) and every clock of DATA.md lies (relative from 0, Unix time from 1970).
+const MEMO_BINS: i64 = 1 << 30;
+
+/// ⌊t/w⌋ of the last time asked, with the span of times certain to give the same bin: the
+/// operation tracker asks each sample for its hour and its day, and a division and a floor
+/// per question were a third of the tracker's time in `perf` (a 30-day `monitor` run). A
+/// time in the span returns what [`floor_to_i64`]`(t / w)` returns: t/w rounded is monotone
+/// in t, the span starts at b·w (exact, so t/w ≥ b there) and ends 2⁻⁵⁰ of its end below
+/// (b+1)·w (so t/w, rounded to 2⁻⁵³, stays below b+1). Not state: never saved, equal to any
+/// other memo.
+#[derive(Clone, Copy, Debug)]
+struct BinMemo {
+    lo: f64,
+    hi: f64,
+    bin: i64,
+}
+
+impl Default for BinMemo {
+    fn default() -> Self {
+        BinMemo {
+            lo: f64::INFINITY,
+            hi: f64::NEG_INFINITY,
+            bin: 0,
+        }
+    }
+}
+
+impl PartialEq for BinMemo {
+    fn eq(&self, _: &Self) -> bool {
+        true
+    }
+}
+
+impl BinMemo {
+    /// ⌊t/w⌋ (`w` positive) when it lies in 0..[`MEMO_BINS`], remembered; `None` otherwise.
+    fn floor_div(&mut self, t: f64, w: f64) -> Option<i64> {
+        if t >= self.lo && t <= self.hi {
+            return Some(self.bin);
+        }
+        let b = floor_to_i64(t / w);
+        if !(0..MEMO_BINS).contains(&b) {
+            return None;
+        }
+        *self = BinMemo {
+            lo: b as f64 * w,
+            hi: (b + 1) as f64 * w * (1.0 - 4.0 * f64::EPSILON),
+            bin: b,
+        };
+        Some(b)
+    }
+}
+
 /// The streaming tracker: door cycles, outages, daily usage and the door check. Saved and
 /// resumed inside the monitor's state.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -673,6 +726,11 @@ pub struct OperationTracker {
     pub days: VecDeque<DayUsage>,
     /// Events not yet handed out (at most one leaves per sample).
     queue: VecDeque<OperationEvent>,
+    /// The hour and the day of the last sample ([`BinMemo`]).
+    #[serde(skip)]
+    hour_memo: BinMemo,
+    #[serde(skip)]
+    day_memo: BinMemo,
 }
 
 impl Default for OperationTracker {
@@ -703,11 +761,28 @@ impl OperationTracker {
             recent: VecDeque::new(),
             days: VecDeque::new(),
             queue: VecDeque::new(),
+            hour_memo: BinMemo::default(),
+            day_memo: BinMemo::default(),
         }
     }
 
+    /// [`hour_bin`] of `t`, through the memo.
+    fn hour_bin(&mut self, t: f64) -> usize {
+        match self.hour_memo.floor_div(t, 3600.0) {
+            Some(h) => (h % HOURS_PER_WEEK as i64) as usize,
+            None => hour_bin(t),
+        }
+    }
+
+    /// [`day_of`] `t`, through the memo.
+    fn day_of(&mut self, t: f64) -> i64 {
+        self.day_memo
+            .floor_div(t, 86_400.0)
+            .unwrap_or_else(|| day_of(t))
+    }
+
     fn day_mut(&mut self, t: f64) -> &mut DayUsage {
-        let d = day_of(t);
+        let d = self.day_of(t);
         if self.days.back().map_or(true, |u| u.day < d) {
             self.days.push_back(DayUsage {
                 day: d,
@@ -765,10 +840,10 @@ impl OperationTracker {
             self.day_mut(t).outage_s += step_s;
         } else if at_rest {
             if let Some(r) = r {
-                self.expected +=
-                    r.trips_per_hour.get(hour_bin(t)).copied().unwrap_or(0.0) * step_s / 3600.0;
+                let h = self.hour_bin(t);
+                self.expected += r.trips_per_hour.get(h).copied().unwrap_or(0.0) * step_s / 3600.0;
             }
-            let d = day_of(t);
+            let d = self.day_of(t);
             match self.pending.last_mut() {
                 Some((day, s)) if *day == d => *s += step_s,
                 _ => self.pending.push((d, step_s)),
@@ -1549,7 +1624,23 @@ mod tests {
                 t
             }
         });
+        let mut memo = OperationTracker::new();
+        // Times in order across many bins' edges, and back again: the memo's spans.
+        let walk = (0..200_000u32).map(|i| {
+            let edge = f64::from(i / 8) * 3600.0;
+            match i % 8 {
+                // The float just below a bin's edge, the closest a time comes to the next bin.
+                7 if edge > 0.0 => f64::from_bits(edge.to_bits() - 1),
+                k => edge + [-1e-9, -1e-6, 0.0, 1e-9, 0.5, -0.5, 1799.0, 0.0][k as usize],
+            }
+        });
+        for t in walk.clone().chain(walk.rev()) {
+            assert_eq!(memo.hour_bin(t), hour_bin(t), "{t}");
+            assert_eq!(memo.day_of(t), day_of(t), "{t}");
+        }
         for t in edges.into_iter().chain(random) {
+            assert_eq!(memo.hour_bin(t), hour_bin(t), "{t}");
+            assert_eq!(memo.day_of(t), day_of(t), "{t}");
             assert_eq!(hour_bin(t), float_hour(t), "{t}");
             assert_eq!(day_of(t), float_day(t), "{t}");
             assert_eq!(floor_to_i64(t), t.floor() as i64, "{t}");

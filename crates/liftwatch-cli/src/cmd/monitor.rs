@@ -317,7 +317,8 @@ impl SampleSink for Sink<'_> {
                 self.monitor.state_ref().level()
             ));
         }
-        if let Some(row) = self.monitor.push(sample) {
+        let mut row = MonitorRow::EMPTY;
+        if self.monitor.push_into(sample, &mut row) {
             self.write(&row).context("cannot write the outputs")?;
         }
         Ok(())

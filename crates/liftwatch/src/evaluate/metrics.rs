@@ -439,10 +439,12 @@ impl SampleSink for CaseSink {
     }
 
     fn push(&mut self, sample: &Sample) -> Result<()> {
-        if let Some(r) = self.pinn.push(sample) {
+        let mut r = MonitorRow::EMPTY;
+        if self.pinn.push_into(sample, &mut r) {
             self.pinn_row(&r);
         }
-        if let Some(r) = self.thr.push(sample) {
+        let mut r = MonitorRow::EMPTY;
+        if self.thr.push_into(sample, &mut r) {
             self.thr_row(&r);
         }
         Ok(())

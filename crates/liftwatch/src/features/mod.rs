@@ -218,6 +218,25 @@ pub struct FeatureRow {
     pub trip: Option<u32>,
 }
 
+impl FeatureRow {
+    /// A row of nothing at time NaN: the place a tracker writes its next row into.
+    pub const MISSING: FeatureRow = FeatureRow {
+        time: f64::NAN,
+        v: f64::NAN,
+        s: 0,
+        lambda: f64::NAN,
+        a_v: f64::NAN,
+        a_l: f64::NAN,
+        a: f64::NAN,
+        d2v: f64::NAN,
+        d2u: f64::NAN,
+        voltage: f64::NAN,
+        floor: f64::NAN,
+        phase: Phase::Standstill,
+        trip: None,
+    };
+}
+
 /// The features of a whole series.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Features {

@@ -103,6 +103,14 @@ impl FeatureTracker {
     /// Feeds one aligned sample; returns the row of the sample LAG (=1) steps back once its
     /// successor is known.
     pub fn push(&mut self, s: &Sample) -> Option<FeatureRow> {
+        let mut row = FeatureRow::MISSING;
+        self.push_into(s, &mut row).then_some(row)
+    }
+
+    /// [`FeatureTracker::push`] into `out`: true when a row was written there. The row is
+    /// built in its place, not moved out of an `Option` (the monitor's per-sample path: a
+    /// copy of a row just stored field by field stalls on every sample).
+    pub fn push_into(&mut self, s: &Sample, out: &mut FeatureRow) -> bool {
         let next = self.preprocess(s);
         // A start whose direction signal comes a sample late: the successor's sign tells it.
         if let Some(c) = self.cur.as_mut() {
@@ -111,10 +119,13 @@ impl FeatureTracker {
                 c.s = next.s;
             }
         }
-        let row = self.cur.map(|c| self.row(self.prev, c, Some(next)));
+        let held = self.cur;
+        if let Some(c) = held {
+            *out = self.row(self.prev, c, Some(next));
+        }
         self.prev = self.cur;
         self.cur = Some(next);
-        row
+        held.is_some()
     }
 
     /// End of data for good: returns the rows still held (computed without look-ahead).

@@ -16,7 +16,7 @@
 //! Written by hand because csv_core's byte-by-byte state machine was the largest single cost
 //! of a `monitor` run (22 % of its CPU on 30 aligned days, `perf`): a line without a quote
 //! holds no escape, so its fields are exactly the bytes between its commas, found eight bytes
-//! at a time (`comma_ends`; `memchr` finds the line's end and any quote). Every record with
+//! at a time with any quote (`comma_ends`; `memchr` finds the line's end). Every record with
 //! a quote still goes through csv_core, so the two paths return the same fields; a test
 //! compares them with the `csv` crate's reader on random texts of quotes, commas, CR and
 //! blank lines, handed over a few bytes at a time.
@@ -105,6 +105,7 @@ impl<R: Read> Records<R> {
     ///
     /// # Panics
     /// When `i` is not below [`Self::len`].
+    #[inline]
     pub fn field(&self, i: usize) -> &[u8] {
         assert!(
             i < self.n_fields,
@@ -164,10 +165,14 @@ impl<R: Read> Records<R> {
                 continue;
             }
             self.line = self.breaks + u64::from(!terminated);
-            if memchr::memchr(b'"', line).is_some() && self.read_quoted(start, len) {
-                return Ok(true);
-            }
-            let n = comma_ends(&self.buf[start..start + len], start, &mut self.ends);
+            let line = &self.buf[start..start + len];
+            let n = match comma_ends(line, start, &mut self.ends, true) {
+                Some(n) => n,
+                None if self.read_quoted(start, len) => return Ok(true),
+                // A quote still open at the line's end: the line split at every comma.
+                None => comma_ends(&self.buf[start..start + len], start, &mut self.ends, false)
+                    .expect("a split that does not stop at quotes always ends"),
+            };
             self.n_fields = n;
             self.start0 = start;
             self.quoted = false;
@@ -279,13 +284,25 @@ impl<R: Read> Records<R> {
 
 /// Writes the end of each comma-separated field of `line` into `ends` (as offsets from
 /// `offset`, the line's place in its buffer), growing it as needed; returns the number of
-/// fields.
+/// fields, or `None` when `stop_at_quote` and the line holds a quote (csv_core reads it).
 ///
-/// Eight bytes at a time: a word's bytes that equal `,` are found with the exact zero-byte
-/// test (no borrow between bytes), and its commas taken lowest first from the mask.
-fn comma_ends(line: &[u8], offset: usize, ends: &mut Vec<usize>) -> usize {
+/// Eight bytes at a time: a word's bytes that equal `,` (or `"`) are found with the exact
+/// zero-byte test (no borrow between bytes), and its commas taken lowest first from the
+/// mask. The line is read once for both: the quote had a `memchr` pass of its own.
+/// (Tried and not kept: `memchr2_iter` for both, whose per-match start-up on 15 fields a line
+/// took twice the time; sixteen-byte masks built byte by byte, which the compiler did not
+/// turn into one vector comparison.)
+fn comma_ends(
+    line: &[u8],
+    offset: usize,
+    ends: &mut Vec<usize>,
+    stop_at_quote: bool,
+) -> Option<usize> {
     const COMMAS: u64 = u64::from_le_bytes([b','; 8]);
+    const QUOTES: u64 = u64::from_le_bytes([b'"'; 8]);
     const LOW7: u64 = 0x7f7f_7f7f_7f7f_7f7f;
+    // The high bit of each byte that is zero in x.
+    let zero_bytes = |x: u64| !(((x & LOW7) + LOW7) | x | LOW7);
     let mut n = 0;
     let mut push = |at: usize, n: &mut usize| {
         if *n == ends.len() {
@@ -294,12 +311,13 @@ fn comma_ends(line: &[u8], offset: usize, ends: &mut Vec<usize>) -> usize {
         ends[*n] = offset + at;
         *n += 1;
     };
+    let mut quotes = 0;
     let mut words = line.chunks_exact(8);
     let mut base = 0;
     for w in &mut words {
-        let x = u64::from_le_bytes(w.try_into().expect("a chunk of 8 bytes")) ^ COMMAS;
-        // The high bit of each byte that is zero in x, that is a comma in the line.
-        let mut m = !(((x & LOW7) + LOW7) | x | LOW7);
+        let x = u64::from_le_bytes(w.try_into().expect("a chunk of 8 bytes"));
+        quotes |= zero_bytes(x ^ QUOTES);
+        let mut m = zero_bytes(x ^ COMMAS);
         while m != 0 {
             push(base + (m.trailing_zeros() / 8) as usize, &mut n);
             m &= m - 1;
@@ -310,9 +328,13 @@ fn comma_ends(line: &[u8], offset: usize, ends: &mut Vec<usize>) -> usize {
         if b == b',' {
             push(base + i, &mut n);
         }
+        quotes |= u64::from(b == b'"');
+    }
+    if stop_at_quote && quotes != 0 {
+        return None;
     }
     push(line.len(), &mut n);
-    n
+    Some(n)
 }
 
 #[cfg(test)]

@@ -188,7 +188,8 @@ impl SampleSink for Feed<'_> {
             c.unwatched += 1;
             return Ok(());
         };
-        if let Some(row) = m.push(s) {
+        let mut row = MonitorRow::EMPTY;
+        if m.push_into(s, &mut row) {
             if let Some(line) = trip_line(&row) {
                 let t = &row.trip_end.expect("trip_line saw it").trip;
                 self.trips.push((self.seq, t.start_time, t.end_time, line));

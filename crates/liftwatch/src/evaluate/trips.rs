@@ -129,15 +129,8 @@ mod tests {
             risk_motor: 0.0,
             risk_brake: 0.0,
             risk_friction: 0.0,
-            level: Level::Normal,
-            event: None,
-            e: f64::NAN,
-            kd_drift_pct: f64::NAN,
-            friction_drift_pct: f64::NAN,
-            brake_drag_n: f64::NAN,
             trip,
-            trip_end: None,
-            operation: None,
+            ..MonitorRow::EMPTY
         };
         let mut g = TripGrouper::new(2.0);
         let mut trips = Vec::new();

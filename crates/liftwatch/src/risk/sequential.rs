@@ -1876,8 +1876,10 @@ fn remainder_drifts(cfg: &SequentialConfig, c: &Cusum, m: usize) -> Option<[(usi
 /// week-long suite a half-size friction ramp on the 1600 kg car reads 110 ± 32 N where it
 /// stands at 46 N (the line: 64 ± 22 N). That window held about 480 trips from 07:12 to
 /// 14:00 of one day, a 50-trip block being 40 minutes of that busy car, and its bend stood
-/// 2.7 times v_d: the healthy day's smooth course from morning to afternoon along the
-/// friction signature, which independent blocks' wander does not describe.
+/// 2.7 times v_d. It is not a bend the healthy trips show: a week of that car's training,
+/// read in windows of a quarter day to a day from every block, bends no more than v_d
+/// predicts along any signature (README, Evaluation), and counting such a bend in v_d
+/// changed no reading of the suites.
 fn moving_wander(cfg: &SequentialConfig, m: usize) -> f64 {
     let block = WANDER_BLOCK_TRIPS as f64 * cfg.info[m];
     cfg.wander[m] * cfg.wander[m] * block

@@ -165,14 +165,15 @@ impl<R: Read> Records<R> {
                 continue;
             }
             self.line = self.breaks + u64::from(!terminated);
-            let line = &self.buf[start..start + len];
-            let n = match comma_ends(line, start, &mut self.ends, true) {
-                Some(n) => n,
-                None if self.read_quoted(start, len) => return Ok(true),
-                // A quote still open at the line's end: the line split at every comma.
-                None => comma_ends(&self.buf[start..start + len], start, &mut self.ends, false)
-                    .expect("a split that does not stop at quotes always ends"),
-            };
+            let (mut n, quoted) = comma_ends(line, start, &mut self.ends);
+            if quoted {
+                if self.read_quoted(start, len) {
+                    return Ok(true);
+                }
+                // A quote still open at the line's end, and csv_core wrote over the ends:
+                // the line split at every comma again.
+                n = comma_ends(&self.buf[start..start + len], start, &mut self.ends).0;
+            }
             self.n_fields = n;
             self.start0 = start;
             self.quoted = false;
@@ -284,7 +285,7 @@ impl<R: Read> Records<R> {
 
 /// Writes the end of each comma-separated field of `line` into `ends` (as offsets from
 /// `offset`, the line's place in its buffer), growing it as needed; returns the number of
-/// fields, or `None` when `stop_at_quote` and the line holds a quote (csv_core reads it).
+/// fields and whether the line holds a quote (then csv_core reads it).
 ///
 /// Eight bytes at a time: a word's bytes that equal `,` (or `"`) are found with the exact
 /// zero-byte test (no borrow between bytes), and its commas taken lowest first from the
@@ -292,12 +293,7 @@ impl<R: Read> Records<R> {
 /// (Tried and not kept: `memchr2_iter` for both, whose per-match start-up on 15 fields a line
 /// took twice the time; sixteen-byte masks built byte by byte, which the compiler did not
 /// turn into one vector comparison.)
-fn comma_ends(
-    line: &[u8],
-    offset: usize,
-    ends: &mut Vec<usize>,
-    stop_at_quote: bool,
-) -> Option<usize> {
+fn comma_ends(line: &[u8], offset: usize, ends: &mut Vec<usize>) -> (usize, bool) {
     const COMMAS: u64 = u64::from_le_bytes([b','; 8]);
     const QUOTES: u64 = u64::from_le_bytes([b'"'; 8]);
     const LOW7: u64 = 0x7f7f_7f7f_7f7f_7f7f;
@@ -330,11 +326,8 @@ fn comma_ends(
         }
         quotes |= u64::from(b == b'"');
     }
-    if stop_at_quote && quotes != 0 {
-        return None;
-    }
     push(line.len(), &mut n);
-    Some(n)
+    (n, quotes != 0)
 }
 
 #[cfg(test)]

@@ -1169,7 +1169,7 @@
     let headline;
     if (lv === 'normal' && fin(v.cusum_ratio) && v.cusum_ratio >= 1) {
       // As `status` says it: a crossing held back because no signature explains it yet.
-      headline = `NORMAL${asOf}, watching: a change the fault signatures cannot yet tell apart (G/h ${v.cusum_ratio.toFixed(2)}; drifts ${(v.drifts || []).map(driftText).join(', ')}); it becomes an advisory once it names its mode, doubles, or has stood a day; ${v.inspect}.`;
+      headline = `NORMAL${asOf}, watching: a change the fault signatures cannot yet tell apart (G/h ${v.cusum_ratio.toFixed(2)}; drifts ${(v.drifts || []).map(driftText).join(', ')}); it becomes an advisory once it names its mode, triples, or has stood a day; ${v.inspect}.`;
     } else if (lv === 'normal') {
       headline = `NORMAL${asOf}: consistent with the healthy reference (drifts ${(v.drifts || []).map(driftText).join(', ')}); ${v.inspect}.`;
     } else {

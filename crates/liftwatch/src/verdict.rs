@@ -348,7 +348,7 @@ impl Verdict {
                 return format!(
                     "NORMAL{at}, watching: a change the fault signatures cannot yet tell apart \
                      (G/h {:.2}; drifts {}); it becomes an advisory once it names its mode, \
-                     doubles, or has stood a day; {}.",
+                     triples, or has stood a day; {}.",
                     self.cusum_ratio,
                     ds.join(", "),
                     self.inspect

@@ -320,13 +320,13 @@ impl AlarmState {
 /// first was, waiting for 1.25·h left four of its fifty-four first advisories `unknown`,
 /// 1.5·h two, 2·h none; with the wander and the load cell's zero weighed as they are now,
 /// 2·h left two `unknown` on the drive-off bench (a brake and a friction ramp on the 630 and
-/// 1600 kg cars, each named right 27 and 45 minutes later), 3·h and 4·h none, and a step
-/// passes 3·h within a few of its trips (no other case of the four field benches moved).
+/// 1600 kg cars, each named right 27 and 45 minutes later), 3·h and 4·h none, and no other
+/// case of the four field benches moved (no step was raised later).
 /// Either way the engineer is not sent to a mode the data could not yet tell.
 pub const UNNAMED_RATIO: f64 = 3.0;
 
 /// The longest an unnamed change is held back (s of the data's clock): a day. A change too
-/// slow to name itself or to double its evidence within a day of traffic is raised as
+/// slow to name itself or to triple its evidence within a day of traffic is raised as
 /// `unknown` then; a slow half-size brake ramp on the 630 kg car with a drive off at rest
 /// held its crossing unnamed for the last ten days of its run without the bound.
 pub const UNNAMED_HOLD_S: f64 = 86_400.0;

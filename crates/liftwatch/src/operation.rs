@@ -590,12 +590,18 @@ fn nan_min(a: f64, b: f64) -> f64 {
     }
 }
 
+/// Seconds of an hour: the width of [`hour_bin`]'s bins.
+const HOUR_S: f64 = 3600.0;
+
+/// Seconds of a day: the width of [`day_of`]'s bins.
+const DAY_S: f64 = 86_400.0;
+
 /// The hour of the week of time `t` (s), 0..[`HOURS_PER_WEEK`]: the bin of
 /// [`OperationReference::trips_per_hour`]. Below [`EXACT_INTEGERS`] hours in integers
 /// ([`floor_to_i64`]: every sample asks, and `floor` and a float remainder are calls on the
 /// baseline x86-64 target), beyond them as floats; both give the bin the floats give.
 fn hour_bin(t: f64) -> usize {
-    let hours = t / 3600.0;
+    let hours = t / HOUR_S;
     if hours.abs() < EXACT_INTEGERS {
         // Same value: the float floor of such an hour is an integer the float remainder
         // divides exactly.
@@ -607,7 +613,7 @@ fn hour_bin(t: f64) -> usize {
 
 /// The day of time `t` (s): ⌊t / 86,400⌋.
 fn day_of(t: f64) -> i64 {
-    floor_to_i64(t / 86_400.0)
+    floor_to_i64(t / DAY_S)
 }
 
 /// 2⁵³: below it in magnitude every integer is a float, and the float remainder of one by
@@ -768,8 +774,8 @@ impl OperationTracker {
 
     /// [`hour_bin`] of `t`, through the memo.
     fn hour_bin(&mut self, t: f64) -> usize {
-        match self.hour_memo.floor_div(t, 3600.0) {
-            Some(h) => (h % HOURS_PER_WEEK as i64) as usize,
+        match self.hour_memo.floor_div(t, HOUR_S) {
+            Some(h) => h.rem_euclid(HOURS_PER_WEEK as i64) as usize,
             None => hour_bin(t),
         }
     }
@@ -777,7 +783,7 @@ impl OperationTracker {
     /// [`day_of`] `t`, through the memo.
     fn day_of(&mut self, t: f64) -> i64 {
         self.day_memo
-            .floor_div(t, 86_400.0)
+            .floor_div(t, DAY_S)
             .unwrap_or_else(|| day_of(t))
     }
 

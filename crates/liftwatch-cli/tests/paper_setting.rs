@@ -3,11 +3,12 @@
 //! extrapolate, `monitor` watches the following day with both methods, and `status` reads
 //! the saved state: normal, with the short training among its caveats.
 
+use liftwatch::sample::HOUR_S;
 use std::path::Path;
 use std::process::Command;
 
 /// Seconds of training at the start of the simulated log: the paper's 3 hours.
-const TRAIN_S: f64 = 3.0 * 3600.0;
+const TRAIN_S: f64 = 3.0 * HOUR_S;
 
 mod common;
 use common::Dir;

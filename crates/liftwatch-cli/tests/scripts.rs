@@ -3,6 +3,7 @@
 //! no `\r` progress into a pipe, checked choices, the step guard, a short fit's caveats, the
 //! alarm budget, the elevator's name and time zone, and one row per trip.
 
+use liftwatch::sample::DAY_S;
 use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
@@ -785,7 +786,7 @@ fn simulate_writes_its_outage_and_doors_into_the_truth() {
     assert_eq!(o["kind"], "stuck_between_floors");
     let (start, end) = (o["start_s"].as_f64().unwrap(), o["end_s"].as_f64().unwrap());
     assert!(
-        start >= 0.42 * 86_400.0 && (end - start - 1800.0).abs() < 1e-6,
+        start >= 0.42 * DAY_S && (end - start - 1800.0).abs() < 1e-6,
         "{o}"
     );
     assert!(o["position"]

@@ -3,6 +3,7 @@
 //! under `target/screenshots/` (`report-top.png`: the first screen, `report-full.png`: the
 //! whole page). Skipped, saying why, on a machine without `chromium` (`.ci/run` installs it).
 
+use liftwatch::sample::DAY_S;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -64,7 +65,7 @@ fn the_report_renders_in_chromium_with_the_verdict_first() {
     };
     let elevator = Elevator::new(1000.0, 1.6, 16);
     let mut sim = SimConfig::new(elevator.clone(), 0.5, 11);
-    sim.start_s = 20_510.0 * 86_400.0; // 2026-02-26 UTC: the axes and the verdict show dates
+    sim.start_s = 20_510.0 * DAY_S; // 2026-02-26 UTC: the axes and the verdict show dates
     let series = simulate(&sim).expect("valid settings").aligned();
     let cfg = TrainConfig {
         epochs: 60,

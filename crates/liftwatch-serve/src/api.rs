@@ -13,6 +13,7 @@
 //! elevators per instance (`max_elevators`, 409), ids `[A-Za-z0-9_-]{1,64}` (400): an id is a
 //! key in the database, never a path.
 
+use liftwatch::sample::DAY_S;
 use std::sync::atomic::Ordering;
 use std::sync::Arc;
 
@@ -281,7 +282,7 @@ fn summary(
     } else {
         f64::NAN
     };
-    let days = (c.last_time - c.first_time) / 86_400.0;
+    let days = (c.last_time - c.first_time) / DAY_S;
     let per_day = |n: u64| {
         if days > 0.0 {
             num(n as f64 / days)

@@ -10,6 +10,7 @@
 //! visit     labels the open events confirmed / not_found; rebaseline → fresh monitor state
 //! ```
 
+use liftwatch::sample::DAY_S;
 use std::collections::HashMap;
 use std::io::Cursor;
 use std::ops::ControlFlow;
@@ -525,7 +526,7 @@ pub const MAX_FIT_EPOCHS: usize = 20_000;
 /// Longest span of stored telemetry one fit aligns (s): 31 days, about 2.7 M samples at 1 s
 /// and half a GB of fit (180 bytes a sample). The span is the times', not the data's: one
 /// reading a hundred days off had a fit of an hour's data take 1.6 GB.
-pub const MAX_FIT_SPAN_S: f64 = 31.0 * 86_400.0;
+pub const MAX_FIT_SPAN_S: f64 = 31.0 * DAY_S;
 
 /// Longest note a fit request may carry (characters).
 const MAX_NOTE_CHARS: usize = 1000;
@@ -692,7 +693,7 @@ fn fit_from_history(
                     if last - first > MAX_FIT_SPAN_S {
                         return Err(format!(
                             "the stored telemetry of the range spans more than {} days (from {} s to at least {} s): fit a shorter range with `from` and `to`",
-                            MAX_FIT_SPAN_S / 86_400.0,
+                            MAX_FIT_SPAN_S / DAY_S,
                             liftwatch::error::number(first),
                             liftwatch::error::number(last)
                         ));

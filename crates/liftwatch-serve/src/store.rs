@@ -15,6 +15,7 @@
 //! checkpoint in one transaction, so the outputs always belong to the checkpoint: a restart
 //! resumes from it and re-applies the later batches.
 
+use liftwatch::sample::DAY_S;
 use std::path::Path;
 use std::time::Duration;
 
@@ -225,7 +226,7 @@ pub fn prune(conn: &Connection, keep_days: f64) -> rusqlite::Result<usize> {
     conn.execute(
         "DELETE FROM batches WHERE received < ?1 AND seq <= COALESCE(
              (SELECT applied_seq FROM checkpoints c WHERE c.elevator = batches.elevator), 0)",
-        params![now() - keep_days * 86_400.0],
+        params![now() - keep_days * DAY_S],
     )
 }
 

@@ -19,6 +19,7 @@
 //! batches: the monitor restarts from a fresh state of the active model at the stream position
 //! the worker has reached. The aligner is never restarted: the samples go on.
 
+use liftwatch::sample::HOUR_S;
 use std::collections::{BTreeSet, HashMap};
 use std::sync::mpsc::{Receiver, RecvTimeoutError};
 use std::sync::Arc;
@@ -40,7 +41,7 @@ use crate::{log, Shared};
 const BATCHES_PER_TURN: i64 = 64;
 
 /// Wall time between two prunings of old raw batches (s).
-const PRUNE_EVERY_S: f64 = 3600.0;
+const PRUNE_EVERY_S: f64 = HOUR_S;
 
 /// Longest wait for a message when nothing is pending: how quickly shutdown is noticed.
 const IDLE_WAIT: Duration = Duration::from_millis(500);

@@ -7,6 +7,7 @@
 //! Run: `cargo bench -p liftwatch --bench fit` (`FIT_BENCH_ADAM_EPOCHS=2000` for a quick look,
 //! `FIT_BENCH_LBFGS_ITERS=N` to change the L-BFGS iteration cap).
 
+use liftwatch::sample::HOUR_S;
 use std::time::Instant;
 
 use liftwatch::features::{extract, fit_load_cell, FeatureConfig};
@@ -18,7 +19,7 @@ use liftwatch::Elevator;
 fn main() {
     let elevator = Elevator::new(1000.0, 1.75, 26);
     let mut sim = SimConfig::new(elevator.clone(), 0.125, 7);
-    sim.start_s = 8.0 * 3600.0; // 08:00-11:00, morning traffic as in the paper's recording
+    sim.start_s = 8.0 * HOUR_S; // 08:00-11:00, morning traffic as in the paper's recording
     let out = simulate(&sim).expect("the benchmark's settings are valid");
     let series = out.aligned();
     let fcfg =

@@ -9,6 +9,7 @@ use liftwatch::mode::FaultMode as Fault;
 use liftwatch::model::TrainConfig;
 use liftwatch::monitor::{Method, Monitor};
 use liftwatch::rng::Rng;
+use liftwatch::sample::DAY_S;
 use liftwatch::sim::plant::SimElevator;
 use liftwatch::sim::scenario::{Ramp, Scenario};
 use liftwatch::sim::{simulate, SimConfig};
@@ -40,13 +41,7 @@ fn main() -> Result<(), liftwatch::Error> {
     // Watch: a week in which Kd steps up by 20 % on day 2.
     let mut watch = SimConfig::new(elevator, 7.0, 31);
     watch.plant = Some(plant);
-    watch.scenario = Scenario::new(
-        Fault::Motor,
-        2.0 * 86_400.0,
-        Ramp::Step,
-        2.0 * 86_400.0,
-        2.0,
-    )?;
+    watch.scenario = Scenario::new(Fault::Motor, 2.0 * DAY_S, Ramp::Step, 2.0 * DAY_S, 2.0)?;
     let series = simulate(&watch)?.aligned();
     let mut monitor = Monitor::new(&fit.model, Method::Pinn);
     let mut events = Vec::new();
@@ -57,7 +52,7 @@ fn main() -> Result<(), liftwatch::Error> {
     for e in &events {
         println!(
             "day {:5.2}: {:<8} mode {:<8} Kd drift {:+.1} %",
-            e.time / 86_400.0,
+            e.time / DAY_S,
             e.level.as_str(),
             e.mode.as_str(),
             e.evidence.kd_drift_pct
@@ -73,8 +68,8 @@ fn main() -> Result<(), liftwatch::Error> {
         .iter()
         .find(|e| e.mode != FaultMode::Unknown)
         .expect("the mode is named");
-    assert!(first.time > 2.0 * 86_400.0, "nothing before the onset");
-    assert!(first.time < 4.0 * 86_400.0, "within two days of the onset");
+    assert!(first.time > 2.0 * DAY_S, "nothing before the onset");
+    assert!(first.time < 4.0 * DAY_S, "within two days of the onset");
     assert_eq!(named.mode, FaultMode::Motor);
     Ok(())
 }

@@ -34,6 +34,7 @@
 //! from the new healthy reference. A reset without a refit would only rebuild the same risk
 //! from the same unrepaired drift.
 
+use crate::sample::DAY_S;
 use serde::{Deserialize, Serialize};
 
 use crate::ingest::Signal;
@@ -329,7 +330,7 @@ pub const UNNAMED_RATIO: f64 = 3.0;
 /// slow to name itself or to triple its evidence within a day of traffic is raised as
 /// `unknown` then; a slow half-size brake ramp on the 630 kg car with a drive off at rest
 /// held its crossing unnamed for the last ten days of its run without the bound.
-pub const UNNAMED_HOLD_S: f64 = 86_400.0;
+pub const UNNAMED_HOLD_S: f64 = DAY_S;
 
 /// How long a crossing of the window-limited GLR must stand before it raises an advisory (s
 /// of the data's clock): an hour, the scale on which a healthy car's levels wander (the
@@ -654,7 +655,7 @@ mod tests {
     #[test]
     fn event_is_one_json_line_with_the_contract_fields() {
         let e = Event {
-            time: 86400.0,
+            time: DAY_S,
             level: Level::Advisory,
             mode: FaultMode::Friction,
             risk: 412.5,

@@ -31,6 +31,7 @@
 // Per-mode arrays read best with explicit indices.
 #![allow(clippy::needless_range_loop)]
 
+use crate::sample::{DAY_S, HOUR_S, YEAR_S};
 use serde::{Deserialize, Serialize};
 
 use crate::alarm::{AlarmState, Level};
@@ -42,7 +43,7 @@ use crate::model::physics::{PhysParams, N_PHYS};
 use crate::model::train::{interpolation_weight_of, INTERPOLATION_NOISE_SHARE};
 use crate::model::HybridModel;
 use crate::residual::PredictionCache;
-use crate::risk::sequential::{DAY_S, GLR_LENGTHS, N_SIZES};
+use crate::risk::sequential::{GLR_LENGTHS, N_SIZES};
 use crate::risk::{
     excess, friction_reference, signature, unpack, PreparedTrip, RiskConfig, RiskTracker, Rls,
     SequentialConfig, TripEvidence, Winding, HEAT_LAG, MAX_HEATING, MAX_WINDING_TAU_S,
@@ -56,9 +57,6 @@ use crate::stats::{chi_square_quantile, robust_sigma};
 /// re-identification are widened to the healthy spread (with the default memory of 3000
 /// trips, a busy week gives about one and a half, so the nominal errors stand).
 const MIN_WINDOWS: f64 = 5.0;
-
-/// Seconds per year, for trip rates.
-const YEAR_S: f64 = 365.25 * 86_400.0;
 
 /// Days of healthy data a calibration needs to keep its promise: the bootstrap draws whole
 /// days, and a week holds every kind of day an elevator has (weekdays, a weekend, the daily
@@ -108,9 +106,6 @@ const MIN_HEALTHY_TRIPS: usize = 30;
 
 /// The motor's index among the signatures.
 const MOTOR_MODE: usize = FaultMode::Motor as usize;
-
-/// Seconds of an hour: the cells of [`HourWander`].
-const HOUR_S: f64 = 3600.0;
 
 /// Fewest trips of an hour that [`HourWander`] measures a level on: a busy hour has 40-150,
 /// a quiet one a handful, whose level is mostly its own noise (that noise is subtracted, but
@@ -208,7 +203,7 @@ impl Default for CalibrationSettings {
     fn default() -> Self {
         CalibrationSettings {
             years: 10.0,
-            block_s: 86_400.0,
+            block_s: DAY_S,
             seed: 1,
             target_false_advisories_per_year: 1.0,
             alarm_factor: 4.0,
@@ -267,7 +262,7 @@ impl CalibrationSettings {
             1000.0,
         )?;
         check("years", self.years, 0.1, 1000.0)?;
-        check("block_s", self.block_s, 60.0, 30.0 * 86_400.0)
+        check("block_s", self.block_s, 60.0, 30.0 * DAY_S)
     }
 }
 
@@ -347,7 +342,7 @@ pub fn calibrate(
 
     let t0 = trips.first().map_or(0.0, |t| t.start);
     let t1 = trips.last().map_or(0.0, |t| t.end);
-    let span_s = (t1 - t0).max(3600.0);
+    let span_s = (t1 - t0).max(HOUR_S);
     let trips_per_year = trips.len() as f64 / span_s * YEAR_S;
     let total = (settings.years.max(0.1) * trips_per_year).ceil() as u64;
     cfg.sequential = SequentialConfig::reference(&trips, f64::INFINITY).map(|mut seq| {
@@ -397,7 +392,7 @@ pub fn calibrate(
     let episodes = bootstrap_episodes(&cfg, &trips, settings.block_s, total, &mut rng, &hours);
     let report = CalibrationReport {
         trips: trips.len(),
-        hours: span_s / 3600.0,
+        hours: span_s / HOUR_S,
         trips_per_year,
         years_simulated: settings.years,
         block_s: settings.block_s,
@@ -1398,7 +1393,7 @@ mod tests {
             .expect("calibrates");
         let got = cal.report.hour_wander[MOTOR];
         assert!((got / sd - 1.0).abs() < 0.3, "hour wander {got}, true {sd}");
-        let month = synthetic_trips(&m, 77, 30.0, 4.0 * 86_400.0, &level(2));
+        let month = synthetic_trips(&m, 77, 30.0, 4.0 * DAY_S, &level(2));
         let seq_max = run(&cal.risk, &month)
             .iter()
             .filter(|a| a.decision.lead_signature == crate::mode::FaultMode::Motor)
@@ -1493,7 +1488,7 @@ mod tests {
             (got / expected - 1.0).abs() < 0.12,
             "hour wander {got}, expected {expected}"
         );
-        let month = traffic(87, 30.0, 8.0 * 86_400.0, 2);
+        let month = traffic(87, 30.0, 8.0 * DAY_S, 2);
         let seq_max = run(&cal.risk, &month)
             .iter()
             .filter(|a| a.decision.lead_signature == crate::mode::FaultMode::Motor)
@@ -1678,14 +1673,14 @@ mod tests {
         let cal = calibrated(&m);
         let cfg = cal.risk;
         let days = 20.0;
-        let ramp = move |t: f64, x: &[f64; N_MODES]| 0.30 * (t / (days * 86_400.0)) * x[FRICTION];
+        let ramp = move |t: f64, x: &[f64; N_MODES]| 0.30 * (t / (days * DAY_S)) * x[FRICTION];
         let trips = synthetic_trips(&m, 5, days, 0.0, &ramp);
         let a = run(&cfg, &trips);
         let first = first_advisory(&cfg, &a, &trips).expect("the drift must raise an advisory");
         assert!(
-            first < 0.8 * days * 86_400.0,
+            first < 0.8 * days * DAY_S,
             "advisory only at day {}",
-            first / 86_400.0
+            first / DAY_S
         );
         // Once found, the drift stays found: the last fifth of the ramp is all above advisory.
         let tail = &a[a.len() * 4 / 5..];
@@ -1703,7 +1698,7 @@ mod tests {
         let cal = calibrated(&m);
         let cfg = cal.risk;
         let k = 1.0 * m.scales.sigma_u_v;
-        let trips = synthetic_trips(&m, 6, 6.0, 0.0, &|t, _| if t > 86_400.0 { k } else { 0.0 });
+        let trips = synthetic_trips(&m, 6, 6.0, 0.0, &|t, _| if t > DAY_S { k } else { 0.0 });
         let a = run(&cfg, &trips);
         let last = a.last().unwrap();
         assert!(
@@ -1722,7 +1717,7 @@ mod tests {
         assert!(a
             .iter()
             .zip(&trips)
-            .filter(|(_, t)| t.start < 86_400.0)
+            .filter(|(_, t)| t.start < DAY_S)
             .all(|(a, _)| a.risk < cfg.advisory));
     }
 
@@ -1736,7 +1731,7 @@ mod tests {
         let m = test_model();
         let cfg = calibrated(&m).risk;
         let k = 1.0 * m.scales.sigma_u_v;
-        let trips = synthetic_trips(&m, 6, 3.0, 0.0, &|t, _| if t > 86_400.0 { k } else { 0.0 });
+        let trips = synthetic_trips(&m, 6, 3.0, 0.0, &|t, _| if t > DAY_S { k } else { 0.0 });
         let offset = [0.004, -0.02, 0.01];
         let moved = |t: &TripEvidence, offset: &[f64; N_MODES]| {
             let mut t = t.clone();
@@ -1776,7 +1771,7 @@ mod tests {
         // 20 days: with a memory of 3000 trips (~8 synthetic days) the estimate needs that
         // long to settle on the new Kd; the tolerance is unchanged.
         let trips = synthetic_trips(&m, 7, 20.0, 0.0, &|t, x| {
-            if t > 86_400.0 {
+            if t > DAY_S {
                 0.10 * x[MOTOR]
             } else {
                 0.0
@@ -1805,7 +1800,7 @@ mod tests {
         let cal = calibrated(&m);
         let cfg = cal.risk;
         let trips = synthetic_trips(&m, 8, 6.0, 0.0, &|t, x| {
-            if t > 86_400.0 {
+            if t > DAY_S {
                 0.5 * x[BRAKE]
             } else {
                 0.0
@@ -1834,7 +1829,7 @@ mod tests {
         // accumulated risk R alone takes hundreds.
         let m = test_model();
         let cfg = calibrated(&m).risk;
-        let onset = 86_400.0;
+        let onset = DAY_S;
         let trips = synthetic_trips(&m, 17, 6.0, 0.0, &|t, x| {
             if t > onset {
                 0.10 * x[MOTOR]
@@ -1900,7 +1895,7 @@ mod tests {
         // alone, within 2 SE of the downward drag.
         let m = test_model();
         let cfg = calibrated(&m).risk;
-        let onset = 86_400.0;
+        let onset = DAY_S;
         let drag = 0.5;
         let trips = synthetic_trips(&m, 29, 4.0, 0.0, &rubbing_drag(onset, drag));
         let a = run(&cfg, &trips);
@@ -1943,7 +1938,7 @@ mod tests {
         // stays `friction`.
         let m = test_model();
         let cfg = calibrated(&m).risk;
-        let onset = 86_400.0;
+        let onset = DAY_S;
         let drag = 0.5;
         let first_mode = |fault: crate::risk::tests::Injection| {
             let trips = synthetic_trips(&m, 31, 4.0, 0.0, fault);
@@ -1965,8 +1960,8 @@ mod tests {
         // stays `motor` (the isolation weighs both).
         let m = test_model();
         let cfg = calibrated(&m).risk;
-        let onset = 86_400.0;
-        let rate = 0.04 / 86_400.0;
+        let onset = DAY_S;
+        let rate = 0.04 / DAY_S;
         let trips = offset_load_trips(&m, 23, 4.0, &|t| rate * (t - onset).max(0.0));
         let a = run(&cfg, &trips);
         let k = first_decided(&a, &trips, onset, |_| true).expect("the drift must be decided");
@@ -1991,7 +1986,7 @@ mod tests {
         // percent, a share of the fitted level, reads 20 %, half the true rise.
         let m = test_model();
         let cfg = calibrated(&m).risk;
-        let onset = 86_400.0;
+        let onset = DAY_S;
         let (level, rise) = (0.5, 0.4);
         let trips = synthetic_trips(&m, 29, 4.0, 0.0, &|t, x| {
             if t >= onset {
@@ -2033,7 +2028,7 @@ mod tests {
         // at the decision.
         let m = test_model();
         let cfg = calibrated(&m).risk;
-        let onset = 86_400.0 + 11.0 * 3600.0;
+        let onset = DAY_S + 11.0 * HOUR_S;
         let mut missed = Vec::new();
         for seed in 0..10 {
             let trips = synthetic_trips(&m, 40 + seed, 2.0, 0.0, &|t, x| {
@@ -2060,8 +2055,8 @@ mod tests {
         // it reported before, sits at about half of it.
         let m = test_model();
         let cfg = calibrated(&m).risk;
-        let onset = 86_400.0;
-        let rate = 0.01 / 86_400.0;
+        let onset = DAY_S;
+        let rate = 0.01 / DAY_S;
         let trips = synthetic_trips(&m, 19, 12.0, 0.0, &|t, x| {
             (t - onset).max(0.0) * rate * x[MOTOR]
         });
@@ -2093,7 +2088,7 @@ mod tests {
         const LATER_KD: f64 = 0.008;
         let m = test_model();
         let training = synthetic_trips(&m, 41, 3.0, 0.0, &|t, x| {
-            DAY_KD[((t / 86_400.0) as usize).min(2)] * x[MOTOR]
+            DAY_KD[((t / DAY_S) as usize).min(2)] * x[MOTOR]
         });
         let settings = CalibrationSettings {
             years: 5.0,
@@ -2109,7 +2104,7 @@ mod tests {
             (0.5 * 0.015 / 3f64.sqrt()..0.02).contains(&se),
             "θ0's error {se}"
         );
-        let later = synthetic_trips(&m, 43, 30.0, 10.0 * 86_400.0, &|_, x| LATER_KD * x[MOTOR]);
+        let later = synthetic_trips(&m, 43, 30.0, 10.0 * DAY_S, &|_, x| LATER_KD * x[MOTOR]);
         let ratio = |cfg: &RiskConfig| {
             run(cfg, &later)
                 .iter()
@@ -2142,8 +2137,8 @@ mod tests {
         // the motor CUSUM (G/h 1.43); with the allowance alone 0.38, the bound alone 0.26.
         use std::f64::consts::TAU;
         let m = test_model();
-        let room = |t: f64| 0.025 * (TAU * (t / 86_400.0 - 15.0 / 24.0)).cos();
-        let own = |t: f64| 0.03 * (TAU * t / 86_400.0).sin();
+        let room = |t: f64| 0.025 * (TAU * (t / DAY_S - 15.0 / 24.0)).cos();
+        let own = |t: f64| 0.03 * (TAU * t / DAY_S).sin();
         let training = synthetic_trips(&m, 51, 0.125, 7.0 * HOUR_S, &|t, x| {
             (room(t) - own(t)) * x[MOTOR]
         });
@@ -2180,7 +2175,7 @@ mod tests {
         let m = test_model();
         let cfg = calibrated(&m).risk;
         let k = 20.0 * m.scales.sigma_u_v;
-        let burst = |t: f64| (86_400.0..86_400.0 + 1500.0).contains(&t);
+        let burst = |t: f64| (DAY_S..DAY_S + 1500.0).contains(&t);
         let trips = synthetic_trips(&m, 21, 3.0, 0.0, &|t, _| if burst(t) { k } else { 0.0 });
         assert!(trips.iter().filter(|t| burst(t.start)).count() >= 3);
         let seq = run(&cfg, &trips)

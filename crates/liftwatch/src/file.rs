@@ -8,6 +8,7 @@
 //! `risk`. In memory each belongs to its own stage ([`FittedModel`]); `ModelDocument` maps
 //! one onto the other, so models written by earlier builds still load.
 
+use crate::sample::DAY_S;
 use std::path::Path;
 
 use serde::{Deserialize, Serialize};
@@ -244,7 +245,7 @@ fn check(model: &FittedModel) -> std::result::Result<(), String> {
         op.validate()?;
     }
     if let Some(step) = model.step_s {
-        check_range("step_s", step, 1e-3, 86_400.0)?;
+        check_range("step_s", step, 1e-3, DAY_S)?;
     }
     model.baseline.validate()
 }

@@ -41,6 +41,7 @@
 // Per-mode arrays read best with explicit indices.
 #![allow(clippy::needless_range_loop)]
 
+use crate::sample::DAY_S;
 use std::collections::VecDeque;
 
 use serde::{Deserialize, Serialize};
@@ -230,7 +231,7 @@ pub fn trend(points: &[DriftPoint], m: usize, now: f64) -> Option<Trend> {
     let mut bin = f64::NAN;
     for p in points {
         let w = 1.0 / p.se[m].max(1e-12).powi(2);
-        let b = ((p.time - t0) / DAY).floor();
+        let b = ((p.time - t0) / DAY_S).floor();
         if b != bin {
             days.push((0.0, 0.0, 0.0));
             bin = b;
@@ -272,16 +273,14 @@ pub fn trend(points: &[DriftPoint], m: usize, now: f64) -> Option<Trend> {
         points: n,
         level: y_mean + b * dt,
         level_se: (var_a + dt * dt * var_b).sqrt(),
-        slope_per_day: b * DAY,
-        slope_se: var_b.sqrt() * DAY,
+        slope_per_day: b * DAY_S,
+        slope_se: var_b.sqrt() * DAY_S,
         rho,
         t_mean,
         fit: (y_mean, var_a, b, var_b),
         q,
     })
 }
-
-const DAY: f64 = 86_400.0;
 
 /// When a drift reaches a level.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
@@ -326,7 +325,7 @@ impl When {
         let qc = d * d - z * z * var_a;
         let disc = (qb * qb - 4.0 * qa * qc).max(0.0).sqrt();
         let (r1, r2) = ((-qb - disc) / (2.0 * qa), (-qb + disc) / (2.0 * qa));
-        let horizon = now + HORIZON_DAYS * DAY;
+        let horizon = now + HORIZON_DAYS * DAY_S;
         let time = tr.t_mean - d / b;
         if time > horizon {
             return When::NotWithinHorizon;
@@ -432,7 +431,7 @@ pub fn forecast(
     changed_since: Option<f64>,
 ) -> Forecast {
     let pts: Vec<DriftPoint> = history.points.iter().copied().collect();
-    let from = changed_since.unwrap_or(now - TREND_WINDOW_DAYS * DAY);
+    let from = changed_since.unwrap_or(now - TREND_WINDOW_DAYS * DAY_S);
     let mut first = pts.partition_point(|p| p.time < from);
     first = first.min(pts.len().saturating_sub(MIN_TREND_POINTS));
     let window = &pts[first..];
@@ -496,6 +495,7 @@ fn scaled(t: Trend, k: f64) -> Trend {
 mod tests {
     use super::*;
     use crate::rng::Rng;
+    use crate::sample::HOUR_S;
 
     /// Points every 4 h over `days` of a drift a + b·t plus AR(1) noise (ρ = 0.6) of sd `sd`.
     fn ramp(days: f64, b_per_day: f64, sd: f64, seed: u64) -> Vec<DriftPoint> {
@@ -503,12 +503,12 @@ mod tests {
         let mut e = 0.0;
         (0..(days * 6.0) as usize)
             .map(|k| {
-                let t = k as f64 * 4.0 * 3600.0;
+                let t = k as f64 * 4.0 * HOUR_S;
                 e = 0.6 * e + 0.8 * sd * rng.normal();
                 DriftPoint {
                     time: t,
                     trips: 50 * (k as u64 + 1),
-                    drift: [b_per_day * t / DAY + e, e, e],
+                    drift: [b_per_day * t / DAY_S + e, e, e],
                     se: [0.3 * sd; N_MODES],
                 }
             })
@@ -529,7 +529,7 @@ mod tests {
             match When::solve(&tr, 0.10, now) {
                 When::At { early, late, .. } => {
                     dated += 1;
-                    if !(early <= 10.0 * DAY && late.map_or(true, |l| l >= 10.0 * DAY)) {
+                    if !(early <= 10.0 * DAY_S && late.map_or(true, |l| l >= 10.0 * DAY_S)) {
                         missed += 1;
                     }
                 }

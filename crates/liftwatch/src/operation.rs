@@ -110,7 +110,7 @@ use crate::features::Trip;
 use crate::mode::FaultMode;
 use crate::risk::sequential::{gaussian_llr, CLIP, N_SIZES, SIZES};
 use crate::rng::{moving_blocks, BlockStart, Rng};
-use crate::sample::Sample;
+use crate::sample::{Sample, DAY_S, HOUR_S};
 use crate::stats::{median, robust_sigma, sorted_quantile};
 
 /// A door that opens again within this long (s) of closing, the car not having moved, is
@@ -192,7 +192,7 @@ pub const DOOR_BOOTSTRAP_YEARS: f64 = 10.0;
 /// advisory came 30 min, a machine `friction` advisory 70 min, and, once the evidence took
 /// the fit's interpolation weights, a motor advisory 2.5 h after service resumed). Outages
 /// are rare, so the evidence this leaves out costs little.
-pub const OUTAGE_BACKLOG_S: f64 = 3.0 * 3600.0;
+pub const OUTAGE_BACKLOG_S: f64 = 3.0 * HOUR_S;
 
 /// Days of usage kept in the monitor state (trips, door cycles, availability per day).
 pub const USAGE_DAYS: usize = 60;
@@ -590,12 +590,6 @@ fn nan_min(a: f64, b: f64) -> f64 {
     }
 }
 
-/// Seconds of an hour: the width of [`hour_bin`]'s bins.
-const HOUR_S: f64 = 3600.0;
-
-/// Seconds of a day: the width of [`day_of`]'s bins.
-const DAY_S: f64 = 86_400.0;
-
 /// The hour of the week of time `t` (s), 0..[`HOURS_PER_WEEK`]: the bin of
 /// [`OperationReference::trips_per_hour`]. Below [`EXACT_INTEGERS`] hours in integers
 /// ([`floor_to_i64`]: every sample asks, and `floor` and a float remainder are calls on the
@@ -847,7 +841,7 @@ impl OperationTracker {
         } else if at_rest {
             if let Some(r) = r {
                 let h = self.hour_bin(t);
-                self.expected += r.trips_per_hour.get(h).copied().unwrap_or(0.0) * step_s / 3600.0;
+                self.expected += r.trips_per_hour.get(h).copied().unwrap_or(0.0) * step_s / HOUR_S;
             }
             let d = self.day_of(t);
             match self.pending.last_mut() {
@@ -1271,9 +1265,9 @@ impl OperationReference {
         let mut per_day: BTreeMap<i64, WeekCounts> = BTreeMap::new();
         for x in samples {
             if x.time.is_finite() && x.speed.is_finite() {
-                hours[hour_bin(x.time)] += step_s / 3600.0;
+                hours[hour_bin(x.time)] += step_s / HOUR_S;
                 per_day.entry(day_of(x.time)).or_default().hours[hour_bin(x.time)] +=
-                    step_s / 3600.0;
+                    step_s / HOUR_S;
             }
         }
         for t in trips {
@@ -1334,7 +1328,7 @@ impl OperationReference {
         probe.outage_expected_trips = (OUTAGE_MARGIN * quiet).max(OUTAGE_MIN_EXPECTED_TRIPS);
         probe.landings_m = learn_landings(trips, floors);
         probe.level_tolerance_m = level_tolerance(trips, floors, &probe.landings_m);
-        let span_days = samples.len() as f64 * step_s / 86_400.0;
+        let span_days = samples.len() as f64 * step_s / DAY_S;
         probe.door = DoorReference::learn(&cycles, step_s, span_days, target);
         probe
     }
@@ -1500,7 +1494,7 @@ impl DoorReference {
         let mut rng = Rng::new(DOOR_BOOTSTRAP_SEED);
         let mut g = [0.0f64; 2 * N_SIZES];
         let mut max_g = [0.0f64; 2 * N_SIZES];
-        let ends = |first: usize, i: usize| scored[i].start - scored[first].start >= 86_400.0;
+        let ends = |first: usize, i: usize| scored[i].start - scored[first].start >= DAY_S;
         moving_blocks(
             &mut rng,
             z.len(),
@@ -1597,18 +1591,18 @@ mod tests {
     #[test]
     fn integer_bins_equal_the_float_ones() {
         let float_hour = |t: f64| {
-            ((t / 3600.0).floor().rem_euclid(HOURS_PER_WEEK as f64)) as usize % HOURS_PER_WEEK
+            ((t / HOUR_S).floor().rem_euclid(HOURS_PER_WEEK as f64)) as usize % HOURS_PER_WEEK
         };
-        let float_day = |t: f64| (t / 86_400.0).floor() as i64;
+        let float_day = |t: f64| (t / DAY_S).floor() as i64;
         let mut rng = crate::rng::Rng::new(3);
         let edges = [
             0.0,
             -0.0,
             1.0,
             -1.0,
-            3600.0,
-            -3600.0,
-            86_400.0,
+            HOUR_S,
+            -HOUR_S,
+            DAY_S,
             -86_400.5,
             1e-300,
             -1e-300,
@@ -1617,10 +1611,10 @@ mod tests {
             f64::INFINITY,
             f64::NEG_INFINITY,
             f64::NAN,
-            EXACT_INTEGERS * 3600.0,
-            -EXACT_INTEGERS * 3600.0,
-            9.3e18 * 86_400.0,
-            -9.3e18 * 86_400.0,
+            EXACT_INTEGERS * HOUR_S,
+            -EXACT_INTEGERS * HOUR_S,
+            9.3e18 * DAY_S,
+            -9.3e18 * DAY_S,
         ];
         let random = (0..100_000).map(|i| {
             let t = rng.uniform(-2e9, 2e9);
@@ -1633,7 +1627,7 @@ mod tests {
         let mut memo = OperationTracker::new();
         // Times in order across many bins' edges, and back again: the memo's spans.
         let walk = (0..200_000u32).map(|i| {
-            let edge = f64::from(i / 8) * 3600.0;
+            let edge = f64::from(i / 8) * HOUR_S;
             match i % 8 {
                 // The float just below a bin's edge, the closest a time comes to the next bin.
                 7 if edge > 0.0 => f64::from_bits(edge.to_bits() - 1),
@@ -1859,13 +1853,12 @@ mod tests {
     /// next Monday morning, an hour it saw, still is.
     #[test]
     fn an_hour_the_training_never_saw_takes_its_quietest_rate() {
-        const DAY: f64 = 86_400.0;
         let (samples, trips) = office_log(3, |t| {
-            (7.0..19.0).contains(&((t / 3600.0) % 24.0)).then_some(120)
+            (7.0..19.0).contains(&((t / HOUR_S) % 24.0)).then_some(120)
         });
         let r = OperationReference::learn(&samples, &trips, 1.0, 0.05, 2, 1.0);
-        assert!((r.trips_per_hour[hour_bin(DAY + 9.0 * 3600.0)] - 30.0).abs() < 1e-9);
-        assert_eq!(r.trips_per_hour[hour_bin(5.0 * DAY + 9.0 * 3600.0)], 0.0);
+        assert!((r.trips_per_hour[hour_bin(DAY_S + 9.0 * HOUR_S)] - 30.0).abs() < 1e-9);
+        assert_eq!(r.trips_per_hour[hour_bin(5.0 * DAY_S + 9.0 * HOUR_S)], 0.0);
         let outages = |from: f64, to: f64, every: i64| {
             let samples = ((from as i64)..(to as i64)).map(|t| {
                 let v = if t % every == 0 { 1.0 } else { 0.0 };
@@ -1874,12 +1867,12 @@ mod tests {
             outage_starts(&r, samples)
         };
         assert_eq!(
-            outages(5.0 * DAY, 6.0 * DAY, 3 * 3600),
+            outages(5.0 * DAY_S, 6.0 * DAY_S, 3 * 3600),
             0,
             "a quiet Saturday"
         );
         assert_eq!(
-            outages(7.0 * DAY, 7.5 * DAY, 6 * 3600),
+            outages(7.0 * DAY_S, 7.5 * DAY_S, 6 * 3600),
             1,
             "a silent Monday morning"
         );
@@ -1901,7 +1894,7 @@ mod tests {
         );
         assert!(!morning.checks_silence());
         assert!(r.checks_silence());
-        let silent_morning = (7 * DAY as i64..(7.5 * DAY) as i64).map(|t| {
+        let silent_morning = (7 * DAY_S as i64..(7.5 * DAY_S) as i64).map(|t| {
             sample(
                 t as f64,
                 if t % (6 * 3600) == 0 { 1.0 } else { 0.0 },
@@ -1950,7 +1943,7 @@ mod tests {
     fn office_day(r: &OperationReference, day: u32, silent: &dyn Fn(f64) -> bool) -> usize {
         let samples = (day * 86_400..(day + 1) * 86_400).map(|i| {
             let t = f64::from(i);
-            let h = (t / 3600.0) % 24.0;
+            let h = (t / HOUR_S) % 24.0;
             let start = (7.0..19.0).contains(&h) && !silent(h) && i % 120 == 0;
             sample(t, if start { 1.0 } else { 0.0 }, 0.0, 1.0)
         });
@@ -1966,8 +1959,8 @@ mod tests {
     #[test]
     fn a_silence_the_training_had_is_measured_at_the_other_days_rates() {
         let r = training(3, |t| {
-            let h = (t / 3600.0) % 24.0;
-            let lunch_break = (86_400.0..2.0 * 86_400.0).contains(&t) && (12.0..14.0).contains(&h);
+            let h = (t / HOUR_S) % 24.0;
+            let lunch_break = (DAY_S..2.0 * DAY_S).contains(&t) && (12.0..14.0).contains(&h);
             ((7.0..19.0).contains(&h) && !lunch_break).then_some(120)
         });
         assert!(
@@ -1989,8 +1982,8 @@ mod tests {
     #[test]
     fn a_training_day_is_measured_at_the_rates_of_days_like_it() {
         let r = training(7, |t| {
-            let h = (t / 3600.0) % 24.0;
-            let day = (t / 86_400.0).floor();
+            let h = (t / HOUR_S) % 24.0;
+            let day = (t / DAY_S).floor();
             let weekend = day >= 5.0;
             let silence = day == 5.0 && (13.0..15.0).contains(&h);
             let every = if weekend { 480 } else { 120 };
@@ -2019,7 +2012,7 @@ mod tests {
                 exchange: f64::NAN,
             })
             .collect();
-        let r = DoorReference::learn(&healthy, 1.0, 3000.0 * 120.0 / 86_400.0, 1.0).unwrap();
+        let r = DoorReference::learn(&healthy, 1.0, 3000.0 * 120.0 / DAY_S, 1.0).unwrap();
         assert!((r.median_s - 10.0).abs() <= 1.0 && r.h[0][0] > 5.0, "{r:?}");
         let mut check = DoorCheck::default();
         assert!(healthy
@@ -2050,7 +2043,7 @@ mod tests {
         const PER_LOAD: f64 = 0.08;
         let cycle = |rng: &mut Rng, i: u32, slower: f64| {
             let start = f64::from(i) * 90.0;
-            let hour = (start / 3600.0) % 24.0;
+            let hour = (start / HOUR_S) % 24.0;
             let peak = (17.0..19.0).contains(&hour);
             let exchange = if peak {
                 rng.uniform(100.0, 200.0)

@@ -6,6 +6,16 @@
 
 use serde::{Deserialize, Serialize};
 
+/// Seconds in an hour. Every time in the pipeline is in seconds of the data clock (DATA.md
+/// §2), so the hour and the day are named once, here, for every stage that counts in them.
+pub const HOUR_S: f64 = 3600.0;
+
+/// Seconds in a day of the data clock: Unix time's day, without leap seconds.
+pub const DAY_S: f64 = 24.0 * HOUR_S;
+
+/// Seconds in a Julian year (365.25 days), the year of rates per elevator-year.
+pub const YEAR_S: f64 = 365.25 * DAY_S;
+
 /// Signals of one aligned instant (DATA.md §2). `NaN` marks a missing value.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Sample {

@@ -42,7 +42,7 @@ use serde::{Deserialize, Serialize};
 use crate::exact;
 use crate::features::Trip;
 use crate::ingest::Signal;
-use crate::sample::Sample;
+use crate::sample::{Sample, DAY_S, HOUR_S};
 use crate::stats::gaussian_llr;
 
 /// A motor voltage reading above this is no drive's (elevator drives run at up to about 1 kV):
@@ -275,7 +275,7 @@ impl SensorLimits {
             self.min_load_pct,
             1000.0,
         )?;
-        check("sensor.max_trip_s", self.max_trip_s, 1.0, 86_400.0)?;
+        check("sensor.max_trip_s", self.max_trip_s, 1.0, DAY_S)?;
         check(
             "sensor.floor_change_speed_mps",
             self.floor_change_speed_mps,
@@ -337,7 +337,7 @@ impl Default for SensorLimits {
             max_trip_s: 120.0,
             floor_change_speed_mps: 0.5,
             stuck_load_cycles: 20,
-            missing_limit_s: 3600.0,
+            missing_limit_s: HOUR_S,
             implausible_fraction: 0.5,
             load_zero_pct: None,
             load_zero_limit_pct: ZERO_LIMIT_FLOOR_PCT,
@@ -867,11 +867,11 @@ mod tests {
         let watch = |offset: f64| {
             let mut check = SensorCheck::new();
             let mut flagged = false;
-            for x in day(86_400.0, offset, 2) {
+            for x in day(DAY_S, offset, 2) {
                 check.sample(&x, &limits, 0.05);
                 flagged |= check.load_zero_drift();
             }
-            (flagged, check.verdict(&limits, 2.0 * 86_400.0, false))
+            (flagged, check.verdict(&limits, 2.0 * DAY_S, false))
         };
         // The 40 % passengers of every trip never count; a healthy zero stays quiet.
         assert_eq!(watch(0.0), (false, false));
@@ -887,7 +887,7 @@ mod tests {
         assert!(limits.load_zero_sd_pct >= ZERO_SD_FLOOR_PCT);
         let witness = |offset: f64, since: f64| {
             let mut check = SensorCheck::new();
-            for x in day(86_400.0, offset, 2) {
+            for x in day(DAY_S, offset, 2) {
                 check.sample(&x, &limits, 0.05);
             }
             (
@@ -907,7 +907,7 @@ mod tests {
         let (pct, se) = shift.expect("24 parkings");
         assert!(pct.abs() < ZERO_WITNESS_Z * se, "healthy: {pct} ± {se} %");
         // Only the parkings after `since` are witnesses.
-        assert_eq!(witness(0.4, 3.0 * 86_400.0).1, None);
+        assert_eq!(witness(0.4, 3.0 * DAY_S).1, None);
         // Three days of parkings keep the last ZERO_WITNESSES, also from an oversized state.
         let mut check = SensorCheck::new();
         let stale = (StateF64(0.0), StateF64(5.0));
@@ -915,12 +915,12 @@ mod tests {
             .zero_witnesses
             .extend(std::iter::repeat(stale).take(3 * ZERO_WITNESSES));
         for d in 1..4u32 {
-            for x in day(f64::from(d) * 86_400.0, 0.0, d.into()) {
+            for x in day(f64::from(d) * DAY_S, 0.0, d.into()) {
                 check.sample(&x, &limits, 0.05);
             }
         }
         assert_eq!(check.zero_witnesses.len(), ZERO_WITNESSES);
-        assert!(check.zero_witnesses.iter().all(|(t, _)| t.0 > 86_400.0));
+        assert!(check.zero_witnesses.iter().all(|(t, _)| t.0 > DAY_S));
     }
 
     #[test]
@@ -934,7 +934,7 @@ mod tests {
         assert_eq!(limits.load_zero_pct, None);
         let witness = |offset: f64| {
             let mut check = SensorCheck::new();
-            for x in day(86_400.0, 0.0, 2).iter().take(10 * 3600) {
+            for x in day(DAY_S, 0.0, 2).iter().take(10 * 3600) {
                 check.sample(x, &limits, 0.05);
             }
             assert_eq!(
@@ -942,15 +942,15 @@ mod tests {
                 None,
                 "10 parkings learn no zero"
             );
-            for x in day(86_400.0 + 10.0 * 3600.0, 0.0, 3).iter().take(14 * 3600) {
+            for x in day(DAY_S + 10.0 * HOUR_S, 0.0, 3).iter().take(14 * 3600) {
                 check.sample(x, &limits, 0.05);
             }
-            for x in day(2.0 * 86_400.0, offset, 4) {
+            for x in day(2.0 * DAY_S, offset, 4) {
                 check.sample(&x, &limits, 0.05);
             }
             assert!(!check.load_zero_drift());
             check
-                .load_zero_shift(&limits, 2.0 * 86_400.0)
+                .load_zero_shift(&limits, 2.0 * DAY_S)
                 .expect("a day of parkings after the learnt zero")
         };
         let (pct, se) = witness(0.4);
@@ -1061,7 +1061,7 @@ mod tests {
         limits.calibrate_load_zero(&day(0.0, 0.0, 1)[..3 * 3600], 0.05);
         assert_eq!(limits.load_zero_pct, None);
         let mut check = SensorCheck::new();
-        for x in day(86_400.0, 5.0, 2) {
+        for x in day(DAY_S, 5.0, 2) {
             check.sample(&x, &limits, 0.05);
         }
         assert!(!check.load_zero_drift());

@@ -24,6 +24,7 @@
 //! Times are UTC dates when the data's clock is Unix time, days of the data clock otherwise
 //! ([`crate::ingest::time::day_text`]).
 
+use crate::sample::DAY_S;
 use serde::Serialize;
 
 use crate::alarm::Level;
@@ -495,7 +496,7 @@ fn mode_forecast_text(f: &ModeForecast, now: f64) -> String {
                     format!("{level}: not within {} days", crate::forecast::HORIZON_DAYS)
                 }
                 When::At { time, early, late } => {
-                    let days = |x: f64| (x - now) / 86_400.0;
+                    let days = |x: f64| (x - now) / DAY_S;
                     let late_text = late.map_or("beyond the horizon".to_string(), |l| {
                         format!("{:.0} days", days(l))
                     });

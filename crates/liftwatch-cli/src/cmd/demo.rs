@@ -6,6 +6,7 @@
 //! alignment → features → fit or monitor. liftwatch and the fixed-threshold baseline watch
 //! the degradation; the report shows both.
 
+use liftwatch::sample::DAY_S;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -27,7 +28,7 @@ use liftwatch_report::{write_report, ReportInputs};
 /// 2026-02-26 00:00 UTC, day 20510 since the epoch, a multiple of 7 days, which the
 /// simulator's week (its day 0 is a Monday) takes for a Monday. (The Unix epoch was a
 /// Thursday, so the simulated weekends fall on calendar Tuesdays and Wednesdays.)
-const WATCH_START_S: f64 = 20_510.0 * 86_400.0;
+const WATCH_START_S: f64 = 20_510.0 * DAY_S;
 
 /// Flags of `liftwatch demo`.
 #[derive(Debug, clap::Args)]
@@ -212,7 +213,7 @@ fn write_events(path: &Path, events: &[liftwatch::alarm::Event]) -> anyhow::Resu
 fn outcome_summary(truth: &SimTruth, pinn: &[MonitorRow], threshold: &[MonitorRow]) -> String {
     use std::fmt::Write;
     let sc = &truth.scenario;
-    let day = |t: f64| (t - truth.start_s) / 86_400.0;
+    let day = |t: f64| (t - truth.start_s) / DAY_S;
     let sev = |t: f64| 100.0 * sc.severity_at(t);
     let mut s = String::new();
     let onset = sc.onset_s;

@@ -1,5 +1,6 @@
 //! `liftwatch fit`: healthy telemetry → features → hybrid model → calibrated risk → model file.
 
+use liftwatch::sample::HOUR_S;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -99,7 +100,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     ui.say(format_args!(
         "fit: {} samples ({:.1} h) from {input}",
         series.len(),
-        series.duration_s() / 3600.0,
+        series.duration_s() / HOUR_S,
     ));
     let started = Instant::now();
     let mut progress = |p: &TrainPoint| {

@@ -6,6 +6,7 @@
 //! same timing serves `--doors slowing` (the wear of the doors) and `--outage` (which starts
 //! at the onset).
 
+use liftwatch::sample::{DAY_S, HOUR_S};
 use std::path::PathBuf;
 
 use anyhow::Context;
@@ -206,7 +207,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let mut cfg = SimConfig::new(elevator, args.days, args.seed);
     cfg.dropouts_per_day = args.dropouts_per_day;
     cfg.traffic_scale = args.traffic;
-    cfg.start_s = args.start_hour * 3600.0;
+    cfg.start_s = args.start_hour * HOUR_S;
     let span = cfg.duration_s();
     let mode = match args.scenario {
         ScenarioArg::Healthy => None,
@@ -219,10 +220,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         RampArg::Linear => Ramp::Linear,
         RampArg::Exponential => Ramp::Exponential,
     };
-    let onset = cfg.start_s + args.onset_days.map_or(0.4 * span, |d| d * 86_400.0);
+    let onset = cfg.start_s + args.onset_days.map_or(0.4 * span, |d| d * DAY_S);
     // An explicit --full-days before the onset is an error; the default follows a late onset.
     let full = match args.full_days {
-        Some(d) => cfg.start_s + d * 86_400.0,
+        Some(d) => cfg.start_s + d * DAY_S,
         None => (cfg.start_s + span).max(onset),
     };
     cfg.scenario = match mode {
@@ -237,7 +238,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }),
         SensorFaultArg::StuckSpeed => Some(SensorFault::StuckSpeed {
             onset_s: onset,
-            duration_s: 3600.0,
+            duration_s: HOUR_S,
         }),
         SensorFaultArg::VoltageOffset => Some(SensorFault::VoltageOffset {
             onset_s: onset,
@@ -258,7 +259,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         cfg.outages.push(OutagePlan {
             kind,
             start_s: onset,
-            duration_s: args.outage_hours.unwrap_or(hours) * 3600.0,
+            duration_s: args.outage_hours.unwrap_or(hours) * HOUR_S,
         });
     }
     cfg.validate()?;

@@ -10,6 +10,7 @@
 use liftwatch::operation::{
     DayUsage, OperationEvent, DOOR_MIN_CYCLES, DOOR_MIN_DAYS, STUCK_LIMIT_S,
 };
+use liftwatch::sample::DAY_S;
 
 use super::{num, Ctx, Section};
 use crate::plot::{colors::*, Axis, Dash, Figure, Legend, Mark, Panel};
@@ -26,7 +27,7 @@ pub(super) fn availability(c: &Ctx) -> Section {
         .map_or(1.0, |d| d.day as f64 + 1.0)
         .max(x0 + 1.0);
     // Days are drawn on the whole series' axis, in its unit.
-    let x = |day: f64| c.whole.x(day * 86_400.0);
+    let x = |day: f64| c.whole.x(day * DAY_S);
     let xaxis = || Axis::new(x(x0), x(x1), c.whole.label.clone());
     let bars: Vec<(f64, f64, f64)> = days
         .iter()

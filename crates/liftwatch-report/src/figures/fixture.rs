@@ -1,6 +1,7 @@
 //! Test fixture of the figure families: a short simulated healthy series, a model fitted on
 //! it with few epochs and the analysis of the series, built once per test process.
 
+use liftwatch::sample::HOUR_S;
 use std::path::PathBuf;
 use std::sync::OnceLock;
 
@@ -16,7 +17,7 @@ use crate::{Analysis, ReportInputs};
 /// Simulated span (days): enough trips to fit and calibrate, little enough to stay fast.
 const DAYS: f64 = 0.25;
 /// Start of the simulation (s after Monday midnight): 07:00, so that the span is busy.
-const START_S: f64 = 7.0 * 3600.0;
+const START_S: f64 = 7.0 * HOUR_S;
 /// Seed of the simulated elevator and its traffic.
 const SEED: u64 = 5;
 /// Training epochs: the figures need a history, not a good model.

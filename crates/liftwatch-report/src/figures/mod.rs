@@ -24,6 +24,7 @@ mod usage;
 use liftwatch::features::{FeatureRow, Trip};
 use liftwatch::ingest::time::{instant_text, is_calendar};
 use liftwatch::residual::Residuals;
+use liftwatch::sample::{DAY_S, HOUR_S};
 /// A number with three significant digits, plainly written (the one writer of numbers in a
 /// sentence, the verdict's and the fit's too).
 use liftwatch::text::sig3 as num;
@@ -76,12 +77,12 @@ impl Time {
     fn unit(span: f64) -> (f64, &'static str) {
         if span <= 600.0 {
             (1.0, "s")
-        } else if span <= 3.0 * 3600.0 {
+        } else if span <= 3.0 * HOUR_S {
             (60.0, "min")
-        } else if span <= 3.0 * 86400.0 {
-            (3600.0, "h")
+        } else if span <= 3.0 * DAY_S {
+            (HOUR_S, "h")
         } else {
-            (86400.0, "days")
+            (DAY_S, "days")
         }
     }
 
@@ -90,7 +91,7 @@ impl Time {
     fn whole(start: f64, end: f64) -> Time {
         let (unit_s, u) = Time::unit(end - start);
         if is_calendar(start) {
-            let midnight = (start / 86_400.0).floor() * 86_400.0;
+            let midnight = (start / DAY_S).floor() * DAY_S;
             return Time {
                 origin: midnight,
                 unit_s,
@@ -134,12 +135,12 @@ impl Time {
 fn span_text(s: f64) -> String {
     if s < 120.0 {
         format!("{s:.0} s")
-    } else if s < 2.0 * 3600.0 {
+    } else if s < 2.0 * HOUR_S {
         format!("{:.1} min", s / 60.0)
-    } else if s < 2.0 * 86400.0 {
-        format!("{:.1} h", s / 3600.0)
+    } else if s < 2.0 * DAY_S {
+        format!("{:.1} h", s / HOUR_S)
     } else {
-        format!("{:.2} days", s / 86400.0)
+        format!("{:.2} days", s / DAY_S)
     }
 }
 

@@ -8,6 +8,7 @@
 
 use super::{num, span_text, Ctx, Section};
 use crate::plot::{colors::*, quantile, Axis, Figure, Legend, Mark, Panel};
+use liftwatch::sample::{DAY_S, HOUR_S};
 use plotters::style::RGBColor;
 
 /// Width of a bin of the load histogram (% of rated load).
@@ -34,7 +35,7 @@ impl Hours {
     /// Counts the whole series.
     fn new(c: &Ctx) -> Hours {
         let s = &c.inp.series.samples;
-        let hour = |t: f64| ((t.rem_euclid(86400.0)) / 3600.0).floor().clamp(0.0, 23.0) as usize;
+        let hour = |t: f64| ((t.rem_euclid(DAY_S)) / HOUR_S).floor().clamp(0.0, 23.0) as usize;
         let mut h = Hours {
             observed: [0.0; 24],
             moving: [0.0; 24],
@@ -66,7 +67,7 @@ impl Hours {
                 (
                     h as f64 + 0.1,
                     h as f64 + 0.9,
-                    n[h] / (self.observed[h] / 3600.0),
+                    n[h] / (self.observed[h] / HOUR_S),
                 )
             })
             .collect()
@@ -80,7 +81,7 @@ pub(super) fn usage(c: &Ctx) -> Section {
     let mb: Vec<Bar> = hours
         .per_hour(&hours.moving)
         .into_iter()
-        .map(|(a, b, v)| (a, b, 100.0 * v / 3600.0))
+        .map(|(a, b, v)| (a, b, 100.0 * v / HOUR_S))
         .collect();
     let lambdas: Vec<f64> = c
         .inp
@@ -180,7 +181,7 @@ fn load_histogram(lambdas: &[f64]) -> Panel {
 
 /// Trips and door openings per day, time moving, the busiest hour and the trip loads.
 fn usage_text(c: &Ctx, hours: &Hours, trips_per_hour: &[Bar], lambdas: &[f64]) -> Vec<String> {
-    let days = hours.observed.iter().sum::<f64>() / 86400.0;
+    let days = hours.observed.iter().sum::<f64>() / DAY_S;
     let n_trips = c.inp.features.trips.len();
     let busiest = trips_per_hour
         .iter()

@@ -16,6 +16,7 @@
 //! offsets, group membership for the leases, a compacted topic for the states and models, an
 //! idempotent producer for the outputs.
 
+use liftwatch::sample::DAY_S;
 use std::collections::HashMap;
 use std::time::Duration;
 
@@ -165,7 +166,7 @@ impl Bus {
             .await
             .map_err(|e| line(&format!("nats {urls}"), e))?;
         let js = jetstream::new(client.clone());
-        let keep = Duration::from_secs_f64(keep_days.max(1.0) * 86_400.0);
+        let keep = Duration::from_secs_f64(keep_days.max(1.0) * DAY_S);
         let telemetry = ensure_stream(
             &js,
             stream::Config {

@@ -61,7 +61,7 @@ use crate::error::{Error, Result};
 use crate::ingest::csv::RowReader;
 use crate::ingest::{IngestReport, Layout};
 use crate::input::Input;
-use crate::sample::AlignedSeries;
+use crate::sample::{AlignedSeries, DAY_S, YEAR_S};
 use passes::{pass_through, sorted_pass, stream_pass, Outcome, Plan};
 
 pub use aligner::{Aligner, AlignerCounts};
@@ -73,7 +73,7 @@ pub(crate) use writer::push_sample;
 pub use writer::{write_aligned, write_aligned_file, AlignedWriter};
 
 /// Longest accepted span of usable times (s): 10 years.
-pub const MAX_SPAN_S: f64 = 10.0 * 365.25 * 86_400.0;
+pub const MAX_SPAN_S: f64 = 10.0 * YEAR_S;
 
 /// Most grid points one input may produce: 10 years at 1 s.
 pub const MAX_SAMPLES: f64 = MAX_SPAN_S;
@@ -84,7 +84,7 @@ pub const MAX_SAMPLES: f64 = MAX_SPAN_S;
 pub const MAX_ROWS_PER_READING: f64 = 1000.0;
 
 /// Span (s) any input may cover regardless of how few readings it has: a week.
-pub const FREE_SPAN_S: f64 = 7.0 * 86_400.0;
+pub const FREE_SPAN_S: f64 = 7.0 * DAY_S;
 
 /// The header of an aligned file (DATA.md §2); `,current` follows when present.
 pub const ALIGNED_HEADER: &str = "time,speed,direction,voltage,load,door,floor";
@@ -130,7 +130,7 @@ impl AlignConfig {
     /// # Errors
     /// [`Error::InvalidConfig`] unless 0.001 <= `step_s` <= 86400.
     pub fn with_step(mut self, step_s: f64) -> Result<Self> {
-        check_range("step_s", step_s, 1e-3, 86_400.0)?;
+        check_range("step_s", step_s, 1e-3, DAY_S)?;
         self.step_s = step_s;
         Ok(self)
     }
@@ -140,7 +140,7 @@ impl AlignConfig {
     /// # Errors
     /// [`Error::InvalidConfig`] unless 0 <= `gap_limit_s` <= 86400.
     pub fn with_gap_limit(mut self, gap_limit_s: f64) -> Result<Self> {
-        check_range("gap_limit_s", gap_limit_s, 0.0, 86_400.0)?;
+        check_range("gap_limit_s", gap_limit_s, 0.0, DAY_S)?;
         self.gap_limit_s = gap_limit_s;
         Ok(self)
     }
@@ -150,7 +150,7 @@ impl AlignConfig {
     /// # Errors
     /// [`Error::InvalidConfig`] unless 0 <= `reorder_window_s` <= 86400.
     pub fn with_reorder_window(mut self, reorder_window_s: f64) -> Result<Self> {
-        check_range("reorder_window_s", reorder_window_s, 0.0, 86_400.0)?;
+        check_range("reorder_window_s", reorder_window_s, 0.0, DAY_S)?;
         self.reorder_window_s = reorder_window_s;
         Ok(self)
     }
@@ -499,7 +499,7 @@ mod tests {
         let text = "time,signal,value\n2026-03-01T00:00:00.5Z,speed,1\n2026-03-01T01:00:01.5+01:00,speed,2\n";
         let (s, _) = align_text(text, &AlignConfig::default()).unwrap();
         assert_eq!(s.len(), 1);
-        assert_eq!(s[0].time, 20_513.0 * 86_400.0 + 1.0);
+        assert_eq!(s[0].time, 20_513.0 * DAY_S + 1.0);
         assert_eq!(s[0].speed, 1.5);
     }
 

@@ -96,7 +96,6 @@ pub const PERSISTENT_TRIPS: usize = 20;
 pub const MIN_TRIP_ROWS: usize = 3;
 
 /// Seconds in a day.
-const DAY_S: f64 = 86_400.0;
 /// Days in an elevator-year (Julian year).
 const YEAR_DAYS: f64 = 365.25;
 

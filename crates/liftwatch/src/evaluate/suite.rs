@@ -8,6 +8,7 @@
 //!               → Monitor(Pinn), Monitor(Threshold), trips → metrics
 //! ```
 
+use crate::sample::{DAY_S, HOUR_S};
 use std::time::Instant;
 
 use serde::Serialize;
@@ -15,7 +16,6 @@ use serde::Serialize;
 use super::charts::{ChartCalibration, Cusum, Ewma, CUSUM_K, EWMA_LAMBDA};
 use super::metrics::{AlignedLog, CaseSink, MethodResult, Metrics};
 use super::trips::{healthy_trip_means, TripGrouper};
-use super::DAY_S;
 use crate::alarm::Level;
 use crate::elevator::Elevator;
 use crate::error::{Error, Result};
@@ -218,7 +218,7 @@ pub fn cases(cfg: &SuiteConfig, fleet: &[FleetElevator]) -> Result<Vec<Case>> {
             "stuck-speed",
             SensorFault::StuckSpeed {
                 onset_s: onset,
-                duration_s: 3600.0,
+                duration_s: HOUR_S,
             },
         )];
         if !cfg.quick {
@@ -332,7 +332,7 @@ pub fn train(fe: &FleetElevator, e: usize, cfg: &SuiteConfig) -> Result<Trained>
     if cfg.train_days < 1.0 {
         // A training shorter than a day (the paper's 3 hours) is a stretch of daytime
         // service, not the empty small hours a midnight start would give it.
-        sc.start_s = SHORT_TRAINING_START_H * 3600.0;
+        sc.start_s = SHORT_TRAINING_START_H * HOUR_S;
     }
     // Fitted on what the technician would have: the training log aligned by the one aligner,
     // with its interpolation error at trip edges, as the monitored runs are watched.

@@ -15,6 +15,7 @@
 //! to 2286 and any relative clock, keeps f64 resolution finer than 2 µs, and turns
 //! logger garbage such as `1e300` or `inf` into bad rows instead of a grid of 1e300 steps.
 
+use crate::sample::DAY_S;
 use time::format_description::well_known::Rfc3339;
 use time::OffsetDateTime;
 
@@ -142,7 +143,7 @@ fn utc(t: f64) -> Option<OffsetDateTime> {
 pub fn day_text(t: f64) -> String {
     match utc(t) {
         Some(d) => format!("{} {} {}", d.day(), month_abbrev(d.month()), d.year()),
-        None => format!("day {:.1}", t / 86_400.0),
+        None => format!("day {:.1}", t / DAY_S),
     }
 }
 
@@ -158,7 +159,7 @@ pub fn instant_text(t: f64) -> String {
             d.hour(),
             d.minute()
         ),
-        None => format!("day {:.2} of the data clock", t / 86_400.0),
+        None => format!("day {:.2} of the data clock", t / DAY_S),
     }
 }
 
@@ -209,14 +210,15 @@ pub fn format_rfc3339(t: f64, offset_s: i32) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sample::HOUR_S;
 
     #[test]
     fn unix_times_read_as_utc_dates_and_a_relative_clock_as_days() {
         let t = parse_rfc3339("2026-03-03T14:05:59Z").unwrap();
         assert_eq!(day_text(t), "3 Mar 2026");
         assert_eq!(instant_text(t), "2026-03-03 14:05 UTC");
-        assert_eq!(day_text(3.5 * 86_400.0), "day 3.5");
-        assert_eq!(instant_text(86_400.0), "day 1.00 of the data clock");
+        assert_eq!(day_text(3.5 * DAY_S), "day 3.5");
+        assert_eq!(instant_text(DAY_S), "day 1.00 of the data clock");
         assert!(!is_calendar(f64::NAN));
     }
 
@@ -240,11 +242,11 @@ mod tests {
     #[test]
     fn rfc3339_utc_is_unix_seconds() {
         // 2026-03-01T00:00:00Z: 20513 days after 1970-01-01.
-        let day = 20_513.0 * 86_400.0;
+        let day = 20_513.0 * DAY_S;
         assert_eq!(parse_rfc3339("2026-03-01T00:00:00Z"), Ok(day));
         assert_eq!(
             parse_rfc3339("2026-03-01T08:00:00.250Z"),
-            Ok(day + 8.0 * 3600.0 + 0.25)
+            Ok(day + 8.0 * HOUR_S + 0.25)
         );
         assert_eq!(parse_rfc3339("1970-01-01T00:00:01Z"), Ok(1.0));
     }

@@ -909,6 +909,7 @@ mod tests {
     use crate::elevator::Elevator;
     use crate::ingest::Signal;
     use crate::residual::tests::{test_features, test_model as test_hybrid};
+    use crate::sample::{DAY_S, HOUR_S};
     use crate::sim::{simulate, SensorFault, SimConfig};
 
     /// The unit-test hybrid model with uncalibrated later stages.
@@ -947,7 +948,7 @@ mod tests {
         let xs = samples(0.4, 3, None);
         let mid_trip = xs
             .iter()
-            .position(|x| x.time > 0.2 * 86_400.0 && x.speed > 1.0)
+            .position(|x| x.time > 0.2 * DAY_S && x.speed > 1.0)
             .unwrap();
         for method in [Method::Pinn, Method::Threshold] {
             let whole = run_all(&model, method, &xs);
@@ -1070,10 +1071,10 @@ mod tests {
         // Machine risk cannot reach a level here: only the sensor checks can.
         model.risk.advisory = 1e30;
         model.risk.alarm = 1e31;
-        let onset = 0.1 * 86_400.0;
+        let onset = 0.1 * DAY_S;
         let fault = SensorFault::StuckSpeed {
             onset_s: onset,
-            duration_s: 3.0 * 3600.0,
+            duration_s: 3.0 * HOUR_S,
         };
         let xs = samples(0.3, 5, Some(fault));
         let mut m = Monitor::new(&model, Method::Pinn);
@@ -1104,7 +1105,7 @@ mod tests {
         // asks R below half of 1e-300), so the stuck speed comes inside a machine episode.
         model.risk.advisory = 1e-300;
         model.risk.alarm = 1e300;
-        let (onset, duration) = (0.2 * 86_400.0, 3600.0);
+        let (onset, duration) = (0.2 * DAY_S, HOUR_S);
         let fault = SensorFault::StuckSpeed {
             onset_s: onset,
             duration_s: duration,
@@ -1211,7 +1212,7 @@ mod tests {
             "half a day of stops calibrates it"
         );
 
-        let onset = 0.3 * 86_400.0;
+        let onset = 0.3 * DAY_S;
         let fault = SensorFault::VoltageOffset {
             onset_s: onset,
             volts: 25.0,

@@ -48,6 +48,7 @@
 //! wander with the winding: scaling without taking them out named fewer brakes on every
 //! suite and raised a false `friction` advisory with week-long trainings.
 
+use crate::sample::DAY_S;
 use serde::{Deserialize, Serialize};
 
 use super::{RiskConfig, BRAKE, FRICTION, MOTOR, N_MODES};
@@ -309,7 +310,7 @@ pub const HEAT_LAG: usize = 0;
 pub const DEFAULT_WINDING_TAU_S: f64 = 2700.0;
 
 /// Length of the ambient cycle (s): the machine room warms and cools with the day.
-pub const AMBIENT_PERIOD_S: f64 = 86_400.0;
+pub const AMBIENT_PERIOD_S: f64 = DAY_S;
 
 /// The winding's healthy temperature response, identified by the calibration.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]

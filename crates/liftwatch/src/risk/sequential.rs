@@ -103,6 +103,7 @@
 // Per-mode arrays read best with explicit indices.
 #![allow(clippy::needless_range_loop)]
 
+use crate::sample::DAY_S;
 use serde::{Deserialize, Serialize};
 
 use super::evidence::{mat_vec, pack, spd_inverse, unpack, PACKED_DIAG};
@@ -246,10 +247,6 @@ pub const REFERENCE_Z: f64 = 2.0;
 /// than it took from a new day's excursions (3-day trainings on the evaluation: four false
 /// advisories of the size 1/2 on the 40-floor car).
 pub const REFERENCE_SIZE: usize = 0;
-
-/// Seconds of a day: the reference's spread is measured between calendar days of training
-/// (and the calibration takes the heating out of each such day with the other days' β).
-pub(crate) const DAY_S: f64 = 86_400.0;
 
 /// Trips per block when the healthy wander is measured: a few busy hours, short against the
 /// daily thermal cycle, long enough for a block's noise to be small.
@@ -399,6 +396,8 @@ impl SequentialConfig {
     /// day's level: τ is then the block wander.
     fn day_spread(&self, trips: &[TripEvidence]) -> [f64; N_MODES] {
         let mut out = [0.0; N_MODES];
+        // The reference's spread is measured between calendar days of training (and the
+        // calibration takes the heating out of each such day with the other days' β).
         let day = |t: &TripEvidence| (t.start / DAY_S).floor();
         for m in 0..N_MODES {
             let mut days: Vec<(f64, f64)> = Vec::new();

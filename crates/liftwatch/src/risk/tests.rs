@@ -7,6 +7,7 @@ use crate::model::HybridModel;
 use crate::residual::tests::{row, test_model};
 use crate::residual::Residuals;
 use crate::rng::Rng;
+use crate::sample::{DAY_S, HOUR_S};
 
 /// A fault or drift as a voltage residual added to each moving sample.
 pub(crate) type Injection<'a> = &'a dyn Fn(f64, &[f64; N_MODES]) -> f64;
@@ -82,7 +83,7 @@ fn trips_of(
     let friction = friction_reference(model);
     // The car stands between trips: a row each second, as an aligned log has them.
     let mut idle_from = t0;
-    while t < t0 + days * 86_400.0 {
+    while t < t0 + days * DAY_S {
         t += rng.uniform(60.0, 400.0);
         let mut idle = idle_from;
         while idle < t {
@@ -128,7 +129,7 @@ fn trips_of(
                 keep * winding.0 + (1.0 - keep) * (p.f_pred / f_ref).powi(2),
                 time,
             );
-            let daily = 0.03 * (2.0 * std::f64::consts::PI * time / 86_400.0).sin();
+            let daily = 0.03 * (2.0 * std::f64::consts::PI * time / DAY_S).sin();
             let warm = daily + beta * winding.0;
             // A fault's voltage passes through the Kd the winding has now, as the healthy
             // force's does.
@@ -169,7 +170,7 @@ fn the_winding_heats_and_cools_with_its_time_constant() {
     }
     assert!((cold.h - warm / std::f64::consts::E).abs() < 1e-9);
     // The daily harmonic is the phase of the day: at 06:00 the sine's peak.
-    let b = cold.advance(tau, 10.0 * 86_400.0 + 6.0 * 3600.0, HeatInput::Rest);
+    let b = cold.advance(tau, 10.0 * DAY_S + 6.0 * HOUR_S, HeatInput::Rest);
     assert!(
         b[HEAT_LAG + 1].abs() < 1e-9 && (b[HEAT_LAG + 2] - 1.0).abs() < 1e-9,
         "{b:?}"
@@ -223,7 +224,7 @@ fn a_dropout_in_a_busy_hour_does_not_cool_the_winding() {
     // A log with three hours missing altogether holds H across them: the row after them
     // speaks for its last minute only.
     let h = known.h;
-    known.advance(tau, 5400.0 + 3.0 * 3600.0, HeatInput::Moving(0.5));
+    known.advance(tau, 5400.0 + 3.0 * HOUR_S, HeatInput::Moving(0.5));
     let minute = (1.0 - (-HEAT_INPUT_SPAN_S / tau).exp()) * (0.5 - h);
     assert!(
         (known.h - h - minute).abs() < 1e-12,

@@ -3,6 +3,7 @@
 
 use super::service::DOOR_STREAM_SALT;
 use super::*;
+use crate::sample::DAY_S;
 
 /// Most calls waiting at once; beyond it new calls are dropped (people take the stairs).
 const MAX_QUEUE: usize = 400;
@@ -113,7 +114,7 @@ impl<'a, S: SimSink> Engine<'a, S> {
             t: start,
             end: start + cfg.duration_s(),
             next_grid: start.ceil(),
-            next_day: start + 86_400.0,
+            next_day: start + DAY_S,
             floor,
             pos: p.floor_positions_m[floor],
             dir_travel: 1,
@@ -652,8 +653,8 @@ impl<'a, S: SimSink> Engine<'a, S> {
         self.sink.truth(&row)?;
         self.summary.truth_rows += 1;
         if t >= self.next_day {
-            (self.progress)((t - self.cfg.start_s) / 86_400.0);
-            self.next_day += 86_400.0;
+            (self.progress)((t - self.cfg.start_s) / DAY_S);
+            self.next_day += DAY_S;
         }
         Ok(())
     }

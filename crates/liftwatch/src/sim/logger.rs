@@ -20,7 +20,7 @@ use std::path::{Path, PathBuf};
 use crate::align::{push_sample, AlignConfig, RowStream, SampleSink};
 use crate::error::{Error, Result};
 use crate::rng::Rng;
-use crate::sample::Sample;
+use crate::sample::{Sample, DAY_S};
 use crate::text::push_fixed;
 
 use super::TruthRow;
@@ -71,7 +71,7 @@ pub(crate) struct Dropouts {
 
 impl Dropouts {
     pub(crate) fn new(mut rng: Rng, per_day: f64, from: f64) -> Self {
-        let rate_per_s = per_day.max(0.0) / 86_400.0;
+        let rate_per_s = per_day.max(0.0) / DAY_S;
         let (start, end) = Self::draw(&mut rng, rate_per_s, from);
         Dropouts {
             rng,
@@ -530,7 +530,7 @@ mod tests {
         let days = 50.0;
         let (mut silent_s, mut starts, mut was) = (0.0, 0, false);
         let mut t = 0.0;
-        while t < days * 86_400.0 {
+        while t < days * DAY_S {
             let s = d.silent(t);
             silent_s += if s { 1.0 } else { 0.0 };
             starts += usize::from(s && !was);

@@ -90,7 +90,7 @@ use crate::error::{Error, Result};
 use crate::mode::FaultMode;
 use crate::model::physics::PhysParams;
 use crate::rng::Rng;
-use crate::sample::{AlignedSeries, Sample};
+use crate::sample::{AlignedSeries, Sample, DAY_S};
 
 pub use logger::{AlignedCsvWriter, RawCsvWriter, RawRow, Signal, ALIGNED_HEADER, SIMULATED};
 pub use motion::{Kinematics, SCurve};
@@ -165,7 +165,7 @@ impl SimConfig {
 
     /// Simulated span (s).
     pub fn duration_s(&self) -> f64 {
-        self.days * 86_400.0
+        self.days * DAY_S
     }
 
     /// Checks every setting.
@@ -186,7 +186,7 @@ impl SimConfig {
         // Every time the run writes must be one the readers take back
         // (ingest::time::MAX_ABS_TIME_S): a start beyond it wrote logs no command could read,
         // and near 1e12 s a second no longer moved the clock, so the run never ended.
-        let last = crate::ingest::time::MAX_ABS_TIME_S - self.days * 86_400.0;
+        let last = crate::ingest::time::MAX_ABS_TIME_S - self.days * DAY_S;
         if !(self.start_s.is_finite() && self.start_s.abs() <= last) {
             return bad(
                 "start_s",

@@ -22,6 +22,7 @@ use serde::{Deserialize, Serialize};
 use crate::elevator::{Elevator, G};
 use crate::model::physics::PhysParams;
 use crate::rng::Rng;
+use crate::sample::HOUR_S;
 
 use super::scenario::{brake_weight, Effects};
 
@@ -331,7 +332,7 @@ impl SimElevator {
 
     /// Machine-room temperature at time `t` (°C), warmest at 15:00.
     pub fn ambient_c(&self, t: f64) -> f64 {
-        let hour = (t / 3600.0).rem_euclid(24.0);
+        let hour = (t / HOUR_S).rem_euclid(24.0);
         self.thermal.ambient_mean_c
             + self.thermal.ambient_swing_k * (std::f64::consts::TAU * (hour - 15.0) / 24.0).cos()
     }

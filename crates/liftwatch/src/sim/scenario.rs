@@ -26,6 +26,7 @@
 //!   the shoes sit closest to the drum in downward and decelerating travel (the paper's
 //!   direction-asymmetric signature), hence the weights w.
 
+use crate::sample::DAY_S;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
@@ -338,7 +339,7 @@ impl SensorFault {
             SensorFault::LoadDrift {
                 onset_s,
                 pct_per_day,
-            } if t > onset_s => pct_per_day * (t - onset_s) / 86_400.0,
+            } if t > onset_s => pct_per_day * (t - onset_s) / DAY_S,
             _ => 0.0,
         }
     }
@@ -431,11 +432,11 @@ mod tests {
         assert!(brake_weight(1, -0.5) > brake_weight(1, 0.5));
         assert_eq!(brake_weight(0, 0.0), 0.0);
         let d = SensorFault::LoadDrift {
-            onset_s: 86_400.0,
+            onset_s: DAY_S,
             pct_per_day: 2.0,
         };
         assert_eq!(d.load_offset_pct(1000.0), 0.0);
-        assert!((d.load_offset_pct(3.0 * 86_400.0) - 4.0).abs() < 1e-12);
+        assert!((d.load_offset_pct(3.0 * DAY_S) - 4.0).abs() < 1e-12);
         let s = SensorFault::StuckSpeed {
             onset_s: 10.0,
             duration_s: 5.0,

@@ -29,6 +29,7 @@
 //! Randomness: the doors draw from their own stream (seed-derived), so a run with `ideal`
 //! doors and no outage draws exactly what it drew before these existed.
 
+use crate::sample::DAY_S;
 use serde::{Deserialize, Serialize};
 
 use super::scenario::Ramp;
@@ -164,7 +165,7 @@ impl OutagePlan {
                 why: format!("{} must be finite", self.start_s),
             });
         }
-        if !(self.duration_s > 0.0 && self.duration_s <= 30.0 * 86_400.0) {
+        if !(self.duration_s > 0.0 && self.duration_s <= 30.0 * DAY_S) {
             return Err(Error::InvalidConfig {
                 field: "outage duration",
                 why: format!("{} s must be above 0 and at most 30 days", self.duration_s),

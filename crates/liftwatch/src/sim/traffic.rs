@@ -17,6 +17,7 @@
 //! load varies enough for identification, as it does in a real building.
 
 use crate::rng::Rng;
+use crate::sample::{DAY_S, HOUR_S};
 
 /// Mean passenger mass (kg), ISO 25745-2 and EN 81-20 use 75 kg.
 pub const PASSENGER_KG: f64 = 75.0;
@@ -65,7 +66,7 @@ fn logistic(x: f64) -> f64 {
 
 /// Hour of day (0-24) of time `t` (s, 0 = Monday midnight).
 pub fn hour_of(t: f64) -> f64 {
-    (t / 3600.0).rem_euclid(24.0)
+    (t / HOUR_S).rem_euclid(24.0)
 }
 
 /// Calls per hour at time `t` for traffic scale 1.
@@ -77,7 +78,7 @@ pub fn calls_per_hour(t: f64) -> f64 {
         + 45.0 * bump(h, 8.5, 0.4)
         + 30.0 * bump(h, 12.5, 0.45)
         + 40.0 * bump(h, 17.5, 0.4);
-    let weekday = (t / 86_400.0).floor().rem_euclid(7.0);
+    let weekday = (t / DAY_S).floor().rem_euclid(7.0);
     if weekday >= 5.0 {
         0.25 * rate
     } else {
@@ -103,7 +104,7 @@ impl Traffic {
     /// The next call after the previous one.
     pub fn next_call(&mut self) -> Call {
         loop {
-            self.t += self.rng.exponential(3600.0 / self.peak_rate);
+            self.t += self.rng.exponential(HOUR_S / self.peak_rate);
             if self
                 .rng
                 .chance(self.scale * calls_per_hour(self.t) / self.peak_rate)
@@ -193,13 +194,12 @@ mod tests {
 
     #[test]
     fn peaks_are_busier_than_the_night() {
-        let day = 86_400.0 * 2.0;
-        assert!(calls_per_hour(day + 8.5 * 3600.0) > 10.0 * calls_per_hour(day + 3.0 * 3600.0));
-        assert!(calls_per_hour(day + 12.5 * 3600.0) > calls_per_hour(day + 10.5 * 3600.0));
-        assert!(calls_per_hour(day + 17.5 * 3600.0) > calls_per_hour(day + 15.0 * 3600.0));
+        let day = DAY_S * 2.0;
+        assert!(calls_per_hour(day + 8.5 * HOUR_S) > 10.0 * calls_per_hour(day + 3.0 * HOUR_S));
+        assert!(calls_per_hour(day + 12.5 * HOUR_S) > calls_per_hour(day + 10.5 * HOUR_S));
+        assert!(calls_per_hour(day + 17.5 * HOUR_S) > calls_per_hour(day + 15.0 * HOUR_S));
         assert!(
-            calls_per_hour(5.0 * 86_400.0 + 8.5 * 3600.0)
-                < 0.3 * calls_per_hour(day + 8.5 * 3600.0)
+            calls_per_hour(5.0 * DAY_S + 8.5 * HOUR_S) < 0.3 * calls_per_hour(day + 8.5 * HOUR_S)
         );
     }
 

@@ -10,10 +10,9 @@ use liftwatch::alarm::Level;
 use liftwatch::mode::FaultMode;
 use liftwatch::monitor::Method;
 use liftwatch::rng::Rng;
+use liftwatch::sample::{DAY_S, HOUR_S};
 use liftwatch::sim::{simulate, DriveAtRest, Ramp, Scenario, SimConfig, SimElevator};
 use liftwatch::{Elevator, Sample};
-
-const DAY: f64 = 86_400.0;
 
 fn telemetry(
     plant: &SimElevator,
@@ -24,7 +23,7 @@ fn telemetry(
 ) -> Vec<Sample> {
     let mut cfg = SimConfig::new(plant.rated.clone(), days, seed);
     cfg.plant = Some(plant.clone());
-    cfg.start_s = start_days * DAY;
+    cfg.start_s = start_days * DAY_S;
     cfg.scenario = sc;
     simulate(&cfg)
         .expect("a valid simulation")
@@ -119,7 +118,7 @@ fn a_drive_off_at_rest_with_a_constant_k_cell_keeps_its_parameters_and_its_quiet
         .filter_map(|r| r.event.as_deref().copied())
         .collect();
     assert!(raised.is_empty(), "healthy data raised {raised:?}");
-    let onset = 4.0 * DAY;
+    let onset = 4.0 * DAY_S;
     let motor = Scenario::new(FaultMode::Motor, onset, Ramp::Step, onset, 1.0).expect("valid");
     let first = watch(84, motor)
         .iter()
@@ -128,9 +127,12 @@ fn a_drive_off_at_rest_with_a_constant_k_cell_keeps_its_parameters_and_its_quiet
         .expect("the motor step raises an advisory");
     println!(
         "motor step: advisory {:.1} h after onset, {:?}",
-        (first.time - onset) / 3600.0,
+        (first.time - onset) / HOUR_S,
         first.mode
     );
-    assert!(first.time > onset && first.time < onset + DAY, "{first:?}");
+    assert!(
+        first.time > onset && first.time < onset + DAY_S,
+        "{first:?}"
+    );
     assert_eq!(first.mode, FaultMode::Motor);
 }

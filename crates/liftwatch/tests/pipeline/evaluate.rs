@@ -4,6 +4,7 @@
 use liftwatch::evaluate::{self, Case, MethodResult, SuiteConfig};
 use liftwatch::mode::FaultMode;
 use liftwatch::mode::FaultMode as Named;
+use liftwatch::sample::DAY_S;
 use liftwatch::sim::{Ramp, Scenario};
 
 fn method<'a>(r: &'a evaluate::CaseResult, name: &str) -> &'a MethodResult {
@@ -67,7 +68,7 @@ fn strong_fault_is_detected_and_healthy_run_stays_quiet() {
     }
 
     // Friction doubled (σ = 4 × the default +25 %) in one step at 40 % of 2.5 days.
-    let span = 2.5 * 86_400.0;
+    let span = 2.5 * DAY_S;
     let onset = 0.4 * span;
     let fault = Case {
         name: "friction step".into(),
@@ -76,7 +77,7 @@ fn strong_fault_is_detected_and_healthy_run_stays_quiet() {
         scenario: Scenario::new(FaultMode::Friction, onset, Ramp::Step, onset, 4.0).unwrap(),
         sensor_fault: None,
         days: 2.5,
-        onset_days: Some(onset / 86_400.0),
+        onset_days: Some(onset / DAY_S),
     };
     let f = evaluate::run_case(&fault, &trained, &cfg).unwrap();
     // More friction, more force, more voltage in both directions: the trip means rise.

@@ -5,6 +5,7 @@
 //! and the full path raw telemetry → alignment (sensors on their own jittered, phase-shifted
 //! clocks, interpolated onto the grid), which blurs both acceleration paths.
 
+use liftwatch::sample::HOUR_S;
 use std::collections::HashMap;
 
 use liftwatch::align::{read_series, AlignConfig};
@@ -19,7 +20,7 @@ fn elevator() -> Elevator {
 /// A simulated morning (07:00-13:00 on a Monday) of a 14-floor office elevator.
 fn morning(seed: u64) -> SimOutput {
     let cfg = SimConfig {
-        start_s: 7.0 * 3600.0,
+        start_s: 7.0 * HOUR_S,
         ..SimConfig::new(elevator(), 0.25, seed)
     };
     sim::simulate(&cfg).expect("a valid simulation")

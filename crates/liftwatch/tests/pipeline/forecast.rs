@@ -8,11 +8,10 @@ use liftwatch::mode::FaultMode;
 use liftwatch::model::TrainConfig;
 use liftwatch::monitor::{Method, Monitor};
 use liftwatch::rng::Rng;
+use liftwatch::sample::DAY_S;
 use liftwatch::sim::{simulate, Ramp, Scenario, SimConfig, SimElevator};
 use liftwatch::verdict::Verdict;
 use liftwatch::{AlignedSeries, Elevator};
-
-const DAY: f64 = 86_400.0;
 
 fn series(
     plant: &SimElevator,
@@ -23,7 +22,7 @@ fn series(
 ) -> AlignedSeries {
     let mut cfg = SimConfig::new(Elevator::new(1000.0, 1.75, 26), days, seed);
     cfg.plant = Some(plant.clone());
-    cfg.start_s = start_days * DAY;
+    cfg.start_s = start_days * DAY_S;
     cfg.scenario = sc;
     simulate(&cfg).expect("a valid simulation").aligned()
 }
@@ -44,7 +43,7 @@ fn a_linear_kd_ramp_is_dated_and_a_healthy_run_is_not() {
         .model;
 
     // Kd rises linearly from day 3 to +20 % on day 15, the physical limit: watched to day 10.
-    let (onset, full) = (3.0 * DAY, 15.0 * DAY);
+    let (onset, full) = (3.0 * DAY_S, 15.0 * DAY_S);
     let ramp = Scenario::new(FaultMode::Motor, onset, Ramp::Linear, full, 2.0).expect("valid");
     let watched = series(&plant, 2.0, 8.0, 93, ramp);
     let mut m = Monitor::new(&model, Method::Pinn);
@@ -66,10 +65,10 @@ fn a_linear_kd_ramp_is_dated_and_a_healthy_run_is_not() {
             assert!(
                 early <= full && full <= late,
                 "interval {:.2}-{:.2} days misses the true {:.2} (most likely {:.2}); trend {trend:?}",
-                early / DAY,
-                late / DAY,
-                full / DAY,
-                time / DAY
+                early / DAY_S,
+                late / DAY_S,
+                full / DAY_S,
+                time / DAY_S
             );
         }
         other => panic!("the ramp is not dated: {other:?}; trend {trend:?}"),

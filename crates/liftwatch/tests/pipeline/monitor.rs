@@ -12,10 +12,9 @@ use liftwatch::mode::FaultMode as Named;
 use liftwatch::model::TrainConfig;
 use liftwatch::monitor::{Method, MonitorRow};
 use liftwatch::rng::Rng;
+use liftwatch::sample::{DAY_S, HOUR_S};
 use liftwatch::sim::{simulate, Ramp, Scenario, SimConfig, SimElevator};
 use liftwatch::{Elevator, Sample};
-
-const DAY: f64 = 86_400.0;
 
 fn elevator() -> Elevator {
     Elevator::new(1000.0, 1.75, 26)
@@ -31,7 +30,7 @@ fn telemetry(
 ) -> Vec<Sample> {
     let mut cfg = SimConfig::new(elevator(), days, seed);
     cfg.plant = Some(plant.clone());
-    cfg.start_s = start_days * DAY;
+    cfg.start_s = start_days * DAY_S;
     cfg.scenario = scenario;
     simulate(&cfg)
         .expect("a valid simulation")
@@ -69,7 +68,7 @@ fn healthy_days_stay_normal_and_a_motor_fault_is_named() {
     assert!(raised.is_empty(), "healthy data raised {raised:?}");
 
     // Kd +10 % from day 3.5 on (one day after the start of the monitored span).
-    let onset = 3.5 * DAY;
+    let onset = 3.5 * DAY_S;
     let motor =
         Scenario::new(FaultMode::Motor, onset, Ramp::Step, onset, 1.0).expect("a valid scenario");
     let xs = telemetry(&plant, 2.0, 3.0, 74, motor);
@@ -88,9 +87,9 @@ fn healthy_days_stay_normal_and_a_motor_fault_is_named() {
         first.time
     );
     assert!(
-        first.time < onset + 0.25 * DAY,
+        first.time < onset + 0.25 * DAY_S,
         "advisory only {} h after the onset",
-        (first.time - onset) / 3600.0
+        (first.time - onset) / HOUR_S
     );
     // The mode follows once the re-identification has moved: the motor, with Kd up.
     let named = events
@@ -99,9 +98,9 @@ fn healthy_days_stay_normal_and_a_motor_fault_is_named() {
         .expect("the episode gets a mode");
     assert_eq!(named.mode, Named::Motor, "{events:?}");
     assert!(
-        named.time < onset + DAY,
+        named.time < onset + DAY_S,
         "named only {} h after the onset",
-        (named.time - onset) / 3600.0
+        (named.time - onset) / HOUR_S
     );
     // Two days after the step the re-identified Kd change approaches the true +10 %.
     let kd = rows.last().expect("rows").kd_drift_pct;
@@ -116,7 +115,7 @@ fn healthy_days_stay_normal_and_a_motor_fault_is_named() {
         .count();
     eprintln!(
         "motor step: liftwatch advisory {:.1} h, motor named {:.1} h after onset; threshold baseline {activations} activations",
-        (first.time - onset) / 3600.0,
-        (named.time - onset) / 3600.0
+        (first.time - onset) / HOUR_S,
+        (named.time - onset) / HOUR_S
     );
 }

@@ -3,6 +3,7 @@
 //! doors raise their events at the right times, and a healthy month raises none of them;
 //! a save and resume in the middle of an outage gives the same events and usage as one run.
 
+use liftwatch::sample::{DAY_S, HOUR_S};
 use std::sync::OnceLock;
 
 use liftwatch::fit::{fit, FittedModel};
@@ -16,8 +17,6 @@ use liftwatch::sim::{
     TruthRow,
 };
 use liftwatch::{Elevator, Sample};
-
-const DAY: f64 = 86_400.0;
 
 /// The outage's start is dated from the last motion before it: in working hours the car
 /// travels every few minutes, so it lies within this many seconds before the true start.
@@ -38,7 +37,7 @@ fn plant() -> SimElevator {
 fn config(start_days: f64, days: f64, seed: u64) -> SimConfig {
     let mut cfg = SimConfig::new(elevator(), days, seed);
     cfg.plant = Some(plant());
-    cfg.start_s = start_days * DAY;
+    cfg.start_s = start_days * DAY_S;
     cfg.doors = DoorBehaviour::Field;
     cfg
 }
@@ -126,7 +125,7 @@ fn machine_events(rows: &[MonitorRow]) -> Vec<String> {
 }
 
 /// Tuesday of the second week, 10:05: working hours.
-const OUTAGE_AT: f64 = 8.0 * DAY + 10.0 * 3600.0 + 300.0;
+const OUTAGE_AT: f64 = 8.0 * DAY_S + 10.0 * HOUR_S + 300.0;
 
 #[test]
 fn an_outage_is_dated_and_ended_and_raises_no_machine_event() {
@@ -134,7 +133,7 @@ fn an_outage_is_dated_and_ended_and_raises_no_machine_event() {
     cfg.outages.push(OutagePlan {
         kind: sim::OutageKind::OutOfService,
         start_s: OUTAGE_AT,
-        duration_s: 4.0 * 3600.0,
+        duration_s: 4.0 * HOUR_S,
     });
     let (rows, state, truth) = watch(&cfg, 0);
     let true_outage = &truth.outages[0];
@@ -176,11 +175,11 @@ fn an_outage_is_dated_and_ended_and_raises_no_machine_event() {
         machine_events(&rows)
     );
     // That day's availability is what 4 h and a few minutes out of 24 h leave.
-    let day = (OUTAGE_AT / DAY).floor() as i64;
+    let day = (OUTAGE_AT / DAY_S).floor() as i64;
     let u = state.operation.days.iter().find(|u| u.day == day).unwrap();
-    let want = 1.0 - (true_outage.end_s - true_outage.start_s) / DAY;
+    let want = 1.0 - (true_outage.end_s - true_outage.start_s) / DAY_S;
     assert!(
-        (u.availability() - want).abs() < START_TOLERANCE_S / DAY + 0.001,
+        (u.availability() - want).abs() < START_TOLERANCE_S / DAY_S + 0.001,
         "{u:?}"
     );
     assert!(state.operation.availability(7) < 1.0);
@@ -225,7 +224,7 @@ fn a_car_stuck_between_floors_is_an_outage_from_its_stop() {
 
 #[test]
 fn slowly_slowing_doors_raise_the_door_advisory_after_the_onset() {
-    let (onset, full) = (10.0 * DAY, 22.0 * DAY);
+    let (onset, full) = (10.0 * DAY_S, 22.0 * DAY_S);
     let mut cfg = config(7.0, 15.0, 75);
     cfg.doors = DoorBehaviour::slowing(onset, Ramp::Linear, full, 1.0).unwrap();
     let (rows, state, _) = watch(&cfg, 0);
@@ -243,7 +242,7 @@ fn slowly_slowing_doors_raise_the_door_advisory_after_the_onset() {
     assert!(
         first.0 > onset && first.0 < full,
         "raised on day {:.2}",
-        first.0 / DAY
+        first.0 / DAY_S
     );
     let line = rows
         .iter()
@@ -277,7 +276,7 @@ fn save_and_resume_equals_one_run() {
     cfg.outages.push(OutagePlan {
         kind: sim::OutageKind::OutOfService,
         start_s: OUTAGE_AT,
-        duration_s: 3.0 * 3600.0,
+        duration_s: 3.0 * HOUR_S,
     });
     let (whole, whole_state, _) = watch(&cfg, 0);
     // Every 997 samples: many of the saves fall inside the outage, between its start and

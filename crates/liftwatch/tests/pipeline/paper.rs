@@ -7,6 +7,7 @@
 
 use liftwatch::model::PhysParams;
 use liftwatch::rng::Rng;
+use liftwatch::sample::{DAY_S, HOUR_S};
 use liftwatch::{Elevator, Sample};
 
 const G: f64 = 9.81;
@@ -22,7 +23,7 @@ const CELL_PCT_PER_MS2: f64 = 100.0 * 0.35 / G;
 fn truth() -> PhysParams {
     PhysParams {
         delta_m: -470.0,
-        m0: 3600.0,
+        m0: HOUR_S,
         f_c: 300.0,
         c_visc: 90.0,
         kd: 0.0048,
@@ -104,8 +105,8 @@ fn office(e: &Elevator, p: &PhysParams, days: f64, seed: u64) -> Vec<Sample> {
                 current: f64::NAN,
             });
         };
-    while t < days * 86_400.0 {
-        let hour = (t / 3600.0) % 24.0;
+    while t < days * DAY_S {
+        let hour = (t / HOUR_S) % 24.0;
         // Office hours call every half to two minutes, the night every quarter hour or so.
         let gap = if (7.0..19.0).contains(&hour) {
             rng.uniform(30.0, 120.0)

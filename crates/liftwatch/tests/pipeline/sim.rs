@@ -3,6 +3,7 @@
 use liftwatch::align::{read_series, AlignConfig};
 use liftwatch::elevator::G;
 use liftwatch::mode::FaultMode;
+use liftwatch::sample::{DAY_S, HOUR_S};
 use liftwatch::sim::{
     self, Ramp, RawRow, Scenario, SensorFault, Signal, SimConfig, SimSink, TruthRow,
 };
@@ -13,7 +14,7 @@ use crate::Dir;
 /// A short run starting at 07:00 on a Monday, so that it holds the morning traffic.
 fn morning(days: f64, seed: u64) -> SimConfig {
     SimConfig {
-        start_s: 7.0 * 3600.0,
+        start_s: 7.0 * HOUR_S,
         ..SimConfig::new(elevator(), days, seed)
     }
 }
@@ -208,7 +209,7 @@ fn fault_ramps_have_the_declared_onset_and_severity() {
     let base = SimConfig::new(elevator(), 1.0, 17);
     let healthy = sim::simulate(&base).unwrap();
     let motor = sim::simulate(&base.clone().with_mode(FaultMode::Motor)).unwrap();
-    let (onset, full) = (0.4 * 86_400.0, 86_400.0);
+    let (onset, full) = (0.4 * DAY_S, DAY_S);
     for (h, m) in healthy.rows.iter().zip(&motor.rows) {
         let t = h.sample.time;
         let want = if t < onset {
@@ -234,7 +235,7 @@ fn fault_ramps_have_the_declared_onset_and_severity() {
     let (mut fr_up, mut fr_down, mut br_up, mut br_down) =
         (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     for ((h, f), b) in healthy.rows.iter().zip(&friction.rows).zip(&brake.rows) {
-        if h.sample.time < 0.9 * 86_400.0 || h.v_true.abs() < 0.5 || h.accel_true != 0.0 {
+        if h.sample.time < 0.9 * DAY_S || h.v_true.abs() < 0.5 || h.accel_true != 0.0 {
             continue;
         }
         let s = h.v_true.signum();
@@ -271,15 +272,15 @@ fn fault_ramps_have_the_declared_onset_and_severity() {
 #[test]
 fn step_and_exponential_ramps_follow_their_shape() {
     let mut cfg = SimConfig::new(elevator(), 0.2, 18);
-    cfg.scenario = Scenario::new(FaultMode::Friction, 3600.0, Ramp::Step, 3600.0, 0.5).unwrap();
+    cfg.scenario = Scenario::new(FaultMode::Friction, HOUR_S, Ramp::Step, HOUR_S, 0.5).unwrap();
     let out = sim::simulate(&cfg).unwrap();
     assert!(out
         .rows
         .iter()
-        .all(|r| r.severity == if r.sample.time < 3600.0 { 0.0 } else { 0.5 }));
+        .all(|r| r.severity == if r.sample.time < HOUR_S { 0.0 } else { 0.5 }));
     cfg.scenario = Scenario::new(
         FaultMode::Friction,
-        3600.0,
+        HOUR_S,
         Ramp::Exponential,
         10_000.0,
         1.0,
@@ -362,7 +363,7 @@ fn sensor_faults_show_in_the_readings_only() {
         .rows
         .iter()
         .filter(|r| r.sample.time > 30_000.0 && r.v_true == 0.0 && r.sample.door == 0.0)
-        .map(|r| r.sample.load - 100.0 * r.load_true - 20.0 * (r.sample.time - 10_000.0) / 86_400.0)
+        .map(|r| r.sample.load - 100.0 * r.load_true - 20.0 * (r.sample.time - 10_000.0) / DAY_S)
         .collect();
     let bias = late.iter().sum::<f64>() / late.len() as f64;
     assert!(
@@ -372,7 +373,7 @@ fn sensor_faults_show_in_the_readings_only() {
 
     cfg.sensor_fault = Some(SensorFault::StuckSpeed {
         onset_s: 30_000.0,
-        duration_s: 3600.0,
+        duration_s: HOUR_S,
     });
     let out = sim::simulate(&cfg).unwrap();
     let stuck: Vec<f64> = out

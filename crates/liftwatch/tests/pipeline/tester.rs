@@ -11,6 +11,7 @@
 //! so that the simulated elevator (whose hidden plant differs from the prior) moves risk,
 //! levels, events and the sensor check: every part of the monitor state is exercised.
 
+use liftwatch::sample::{DAY_S, HOUR_S};
 use std::path::{Path, PathBuf};
 
 use liftwatch::align::{align_file, read_series, AlignConfig, SampleSink};
@@ -39,8 +40,8 @@ impl MonitorTester {
         let elevator = Elevator::new(1000.0, 1.75, 26);
         let mut sim = SimConfig::new(elevator.clone(), 0.5, 7);
         sim.sensor_fault = Some(SensorFault::StuckSpeed {
-            onset_s: 0.25 * 86_400.0,
-            duration_s: 3600.0,
+            onset_s: 0.25 * DAY_S,
+            duration_s: HOUR_S,
         });
         let out = simulate(&sim).expect("a valid simulation");
         let raw = dir.join("raw.csv");

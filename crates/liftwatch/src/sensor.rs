@@ -10,7 +10,8 @@
 //!              healthy trip; a fast trip that did not change the floor; a trip that started on
 //!              another floor than the previous one ended                   → implausible
 //! per parking: z = mean load reading while the car stood still with the door closed, from its
-//!              5th minute on (nobody waits five minutes in a closed car: it is empty);
+//!              5th minute on, after the door opened at that stop (nobody waits five minutes
+//!              in a closed car they could leave: it is empty);
 //!              |z − z_healthy| above the limit calibrated on the training → load-cell zero drift
 //! per stop:    y = median voltage of the standstill from its 5th second on (first minute)
 //!              d = y − y_healthy;  u± = clip((±d − a)/σ, ±3)   a: allowance, σ: spread
@@ -53,8 +54,10 @@ pub const MAX_PLAUSIBLE_VOLTAGE_V: f64 = 10_000.0;
 /// A speed reading above this is no elevator's (the fastest run at about 20 m/s).
 pub const MAX_PLAUSIBLE_SPEED_MPS: f64 = 50.0;
 
-/// A car that has stood still with its door closed this long is parked, and empty: nobody
-/// waits five minutes in a closed car (s).
+/// A car that has stood still with its door closed this long, after its door opened at that
+/// stop, is parked, and empty: nobody waits five minutes in a closed car they could leave (s).
+/// A car that stopped and never opened its door may hold people who cannot leave (a car stuck
+/// between floors), so its standstill is no parking, however long.
 pub const PARKED_S: f64 = 300.0;
 
 /// Least readings of a parking (after [`PARKED_S`]) that make a zero reading: a minute of 1 Hz
@@ -176,6 +179,14 @@ pub struct Parking {
     #[serde(with = "exact")]
     sum: f64,
     n: u32,
+    /// Whether the door has opened since the car last moved: only then could whoever rode
+    /// have left. A state written before this was kept takes it as opened, as it counted then.
+    #[serde(default = "opened_before")]
+    opened: bool,
+}
+
+fn opened_before() -> bool {
+    true
 }
 
 impl Parking {
@@ -185,16 +196,28 @@ impl Parking {
             since: f64::NAN,
             sum: 0.0,
             n: 0,
+            opened: false,
         }
     }
 
     /// Takes one sample (`thr` the motion threshold, m/s); returns the mean load reading of a
     /// parking (percent) when this sample ends one that lasted long enough.
     pub fn push(&mut self, x: &Sample, thr: f64) -> Option<f64> {
-        let parked = x.speed.is_finite() && x.speed <= thr && x.door.is_finite() && x.door < 0.5;
-        if !parked {
+        let still = x.speed.is_finite() && x.speed <= thr;
+        let closed = x.door.is_finite() && x.door < 0.5;
+        if !(still && closed && self.opened) {
             let out = (self.n >= PARKED_MIN_SAMPLES).then(|| self.sum / f64::from(self.n));
-            *self = Parking::new();
+            // Motion closes the way out; an open door at a standstill opens it. A reading
+            // missing from either leaves it as it was.
+            let opened = if x.speed > thr {
+                false
+            } else {
+                self.opened || (still && x.door >= 0.5)
+            };
+            *self = Parking {
+                opened,
+                ..Parking::new()
+            };
             return out;
         }
         if self.since.is_nan() {
@@ -878,6 +901,58 @@ mod tests {
         // A cell 2 % off (1.5 % rounds to 2 % half the time) is a sensor fault at once.
         assert_eq!(watch(2.0), (true, true));
         assert_eq!(watch(-2.0), (true, true));
+    }
+
+    #[test]
+    fn a_car_stuck_with_its_passengers_is_no_parking_until_its_door_has_opened() {
+        let mut limits = SensorLimits::default();
+        limits.calibrate_load_zero(&day(0.0, 0.0, 1), 0.05);
+        // A day as `day`'s, then the car stops between floors with 25 % aboard, door closed,
+        // for an hour; freed, it opens its door, lets them out, and parks empty for an hour.
+        let mut samples = day(DAY_S, 0.0, 2);
+        let (t0, like) = (2.0 * DAY_S, samples[0]);
+        let at = |k: u32, speed: f64, door: f64, load: f64| Sample {
+            time: t0 + f64::from(k),
+            speed,
+            door,
+            load,
+            ..like
+        };
+        samples.extend((0..60).map(|k| at(k, 1.5, 0.0, 25.0)));
+        samples.extend((60..3660).map(|k| at(k, 0.0, 0.0, 25.0)));
+        let freed = samples.len();
+        samples.extend((3660..3690).map(|k| at(k, 0.0, 1.0, 0.0)));
+        samples.extend((3690..7290).map(|k| at(k, 0.0, 0.0, 0.0)));
+        samples.push(at(7290, 1.5, 0.0, 0.0));
+
+        let mut check = SensorCheck::new();
+        let mut drift_at = None;
+        for (i, x) in samples.iter().enumerate() {
+            check.sample(x, &limits, 0.05);
+            if check.load_zero_drift() && drift_at.is_none() {
+                drift_at = Some(i);
+            }
+        }
+        // The hour with people aboard reads 25 %: counted as a parking, it was a zero drift the
+        // moment the door opened. The empty hour after it is a witness, and a healthy one.
+        assert_eq!(
+            drift_at, None,
+            "the trapped passengers read as the empty car's zero"
+        );
+        let newest = check.newest_zero_witness().map(f64::from_bits);
+        assert!(
+            newest.is_some_and(|t| t > samples[freed].time),
+            "{newest:?}"
+        );
+
+        // Without the door's opening, the same hour is no parking either way.
+        let mut parking = Parking::new();
+        let ends: Vec<f64> = samples[freed - 3660..freed]
+            .iter()
+            .chain([&at(3660, 1.5, 0.0, 25.0)])
+            .filter_map(|x| parking.push(x, 0.05))
+            .collect();
+        assert!(ends.is_empty(), "{ends:?}");
     }
 
     #[test]

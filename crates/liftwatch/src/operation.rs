@@ -876,8 +876,14 @@ impl OperationTracker {
     fn check_outage(&mut self, x: &Sample, r: &OperationReference) {
         let t = x.time;
         let door_closed = x.door == 0.0;
+        // A door that opened since that trip ended stands at a landing, whatever the trip's
+        // distance said: landing doors unlock only within 0.2 m of a landing (0.35 m with
+        // manual doors; EN 81-20's unlocking zone). The hop that frees a stuck car starts
+        // off its landing, and from the landing its floor reading names, it ends "between".
+        let opened_since = self.last_close >= self.between_since;
         let stuck = self.between_since.is_finite()
             && door_closed
+            && !opened_since
             && t - self.between_since >= STUCK_LIMIT_S;
         let quiet = self.expected >= r.outage_expected_trips && t - self.rest_since >= OUTAGE_MIN_S;
         if !(stuck || quiet) {
@@ -1827,6 +1833,56 @@ mod tests {
             bare.push(&sample(f64::from(i), 0.0, 0.0, 1.0), 1.0, 0.05, None);
         }
         assert!(bare.take_event().is_none() && bare.availability(1) == 1.0);
+    }
+
+    /// A trip that ends 1.5 m past a landing, the car then standing still with its door
+    /// closed: stuck, from the trip's end. The same trip, the door opening and closing after
+    /// it: a car at a landing (its distance was off, as a freed car's hop is, which starts
+    /// where it was stuck), no outage however long it then stands.
+    #[test]
+    fn a_car_that_opens_its_door_stands_at_a_landing_whatever_its_distance_says() {
+        let r = OperationReference {
+            trips_per_hour: vec![0.0; HOURS_PER_WEEK],
+            landings_m: vec![0.0, 3.0, 6.0, 9.0],
+            ..busy_reference()
+        };
+        let hop = Trip {
+            index: 0,
+            start_time: 90.0,
+            end_time: 100.0,
+            direction: 1,
+            from_floor: 2.0,
+            to_floor: 2.0,
+            load_ratio: 0.0,
+            peak_speed: 1.0,
+            distance_m: 1.5,
+            samples: 10,
+        };
+        assert!(level_offset(&r.landings_m, &hop).unwrap() > r.level_tolerance_m);
+        let starts = |door_cycle: bool| {
+            let mut tr = OperationTracker::new();
+            let mut starts = Vec::new();
+            for i in 0..3600 {
+                let t = f64::from(i);
+                let v = if (90..100).contains(&i) { 1.0 } else { 0.0 };
+                let door = f64::from(u8::from(door_cycle && (110..130).contains(&i)));
+                tr.push(&sample(t, v, door, 2.0), 1.0, 0.05, Some(&r));
+                if i == 101 {
+                    tr.trip(&hop, Some(&r));
+                }
+                while let Some(e) = tr.take_event() {
+                    if let OperationEvent::OutageStart(o) = e {
+                        starts.push(o);
+                    }
+                }
+            }
+            starts
+        };
+        let stuck = starts(false);
+        assert_eq!(stuck.len(), 1, "{stuck:?}");
+        assert_eq!(stuck[0].kind, OutageKind::StuckBetweenFloors);
+        assert_eq!(stuck[0].start, 100.0);
+        assert!(starts(true).is_empty());
     }
 
     /// A speed sensor stuck at zero on a travelling car: the floor reading changes every two

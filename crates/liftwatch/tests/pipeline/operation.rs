@@ -195,7 +195,14 @@ fn a_car_stuck_between_floors_is_an_outage_from_its_stop() {
     });
     let (rows, _, truth) = watch(&cfg, 0);
     let true_outage = &truth.outages[0];
-    let events = operation_events(&rows);
+    let events: Vec<_> = operation_events(&rows)
+        .into_iter()
+        .filter(|e| !matches!(e, OperationEvent::Door { .. }))
+        .collect();
+    // One start and one end: the hop that frees the car starts off its landing, so its
+    // distance ends it "between landings" again, but its door then opens, which no door
+    // does away from a landing.
+    assert_eq!(events.len(), 2, "{events:?}");
     let OperationEvent::OutageStart(s) = events[0] else {
         panic!("{events:?}")
     };

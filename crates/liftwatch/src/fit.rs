@@ -21,9 +21,10 @@ use crate::error::Result;
 use crate::features::{FeatureConfig, Features};
 use crate::model::train::{self, TrainPoint};
 use crate::model::{FitSummary, HybridModel, PhysParams, TrainConfig};
-use crate::operation::OperationReference;
+use crate::operation::{OperationReference, Silence};
 use crate::risk::{evidence_predictions, trip_evidence_from, RiskConfig, TripEvidence, N_MODES};
 use crate::sample::AlignedSeries;
+use crate::sample::HOUR_S;
 use crate::sensor::SensorLimits;
 
 /// Everything `monitor` needs, as written by `fit` (DATA.md §5). Its JSON form, the model
@@ -165,7 +166,7 @@ pub fn fit_with(
     summary
         .warnings
         .extend(short_training_notes(&calibrated.report, &calibrated.risk));
-    let operation = OperationReference::learn(
+    let learnt = OperationReference::learn(
         &series.samples,
         &features.trips,
         series.step_s,
@@ -173,6 +174,10 @@ pub fn fit_with(
         elevator.floors as usize,
         calibration.target_false_advisories_per_year,
     );
+    summary
+        .warnings
+        .extend(training_outage_note(&learnt.outages));
+    let operation = learnt.reference;
     let model = FittedModel {
         hybrid,
         features: feature_cfg,
@@ -218,6 +223,21 @@ fn short_training_notes(report: &CalibrationReport, risk: &RiskConfig) -> Vec<St
         report.target_text()
     ));
     notes
+}
+
+/// The training's own outages, in one line: they are left out of the silences that set how
+/// long a silence may last, and the owner should know the training held them.
+fn training_outage_note(outages: &[Silence]) -> Option<String> {
+    let longest = outages
+        .iter()
+        .max_by(|a, b| (a.end - a.start).total_cmp(&(b.end - b.start)))?;
+    let when = crate::ingest::time::instant_text(longest.start);
+    Some(format!(
+        "the training holds {} silence{} that its other silences call an outage (the longest {:.1} h from {when}): left out of the silences that say how long this car may stand idle, so a silence as long is reported as an outage",
+        outages.len(),
+        if outages.len() == 1 { "" } else { "s" },
+        (longest.end - longest.start) / HOUR_S,
+    ))
 }
 
 impl FittedModel {

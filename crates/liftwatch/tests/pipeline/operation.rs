@@ -185,6 +185,50 @@ fn an_outage_is_dated_and_ended_and_raises_no_machine_event() {
     assert!(state.operation.availability(7) < 1.0);
 }
 
+/// The same week with the car out of service for four hours of a Wednesday: the training's
+/// own outage. Kept among its silences it set Λ_max twelve times too high (411 expected
+/// trips against 34 on another simulated week, `simulate --days 7 --seed 3 --outage
+/// out-of-service --onset-days 2.42`), and an outage would be concluded after ten hours
+/// instead of one.
+#[test]
+fn an_outage_in_the_training_is_left_out_of_how_long_the_car_may_stand_idle() {
+    let mut cfg = config(0.0, 7.0, 72);
+    cfg.outages.push(OutagePlan {
+        kind: sim::OutageKind::OutOfService,
+        start_s: 2.0 * DAY_S + 10.0 * HOUR_S,
+        duration_s: 4.0 * HOUR_S,
+    });
+    let train = sim::simulate(&cfg).expect("a valid simulation").aligned();
+    let fitted = fit(
+        &train,
+        &elevator(),
+        &TrainConfig {
+            epochs: 150,
+            log_every: 0,
+            ..TrainConfig::default()
+        },
+        &mut |_| {},
+    )
+    .expect("a week fits")
+    .model;
+    let with = fitted.operation.as_ref().unwrap().outage_expected_trips;
+    let healthy = model().operation.as_ref().unwrap().outage_expected_trips;
+    // Four hours without trips move the day's rates and which days judge which, so Λ_max
+    // moves too (54.5 against 41.7 expected trips here), but not by the outage's own length.
+    assert!(
+        (with / healthy - 1.0).abs() < 0.5,
+        "Λ_max {with:.1} with the outage in the training, {healthy:.1} without"
+    );
+    let noted = |m: &FittedModel| {
+        m.summary
+            .warnings
+            .iter()
+            .any(|w| w.starts_with("the training holds 1 silence"))
+    };
+    assert!(noted(&fitted), "{:?}", fitted.summary.warnings);
+    assert!(!noted(model()), "{:?}", model().summary.warnings);
+}
+
 #[test]
 fn a_car_stuck_between_floors_is_an_outage_from_its_stop() {
     let mut cfg = config(7.0, 2.0, 74);

@@ -11,7 +11,8 @@
 //!              another floor than the previous one ended                   → implausible
 //! per parking: z = mean load reading while the car stood still with the door closed, from its
 //!              5th minute on, after the door opened at that stop (nobody waits five minutes
-//!              in a closed car they could leave: it is empty);
+//!              in a closed car they could leave: it is empty) or with the car known empty
+//!              since its last parking (no door opened since);
 //!              |z − z_healthy| above the limit calibrated on the training → load-cell zero drift
 //! per stop:    y = median voltage of the standstill from its 5th second on (first minute)
 //!              d = y − y_healthy;  u± = clip((±d − a)/σ, ±3)   a: allowance, σ: spread
@@ -57,7 +58,8 @@ pub const MAX_PLAUSIBLE_SPEED_MPS: f64 = 50.0;
 /// A car that has stood still with its door closed this long, after its door opened at that
 /// stop, is parked, and empty: nobody waits five minutes in a closed car they could leave (s).
 /// A car that stopped and never opened its door may hold people who cannot leave (a car stuck
-/// between floors), so its standstill is no parking, however long.
+/// between floors), so its standstill is no parking, however long, unless the car was
+/// already known empty when it set off (parked, then sent home with its door shut).
 pub const PARKED_S: f64 = 300.0;
 
 /// Least readings of a parking (after [`PARKED_S`]) that make a zero reading: a minute of 1 Hz
@@ -183,6 +185,11 @@ pub struct Parking {
     /// have left. A state written before this was kept takes it as opened, as it counted then.
     #[serde(default = "opened_before")]
     opened: bool,
+    /// Whether the car is known to be empty: it stood parked past [`PARKED_S`] and its door
+    /// has not opened since, so nobody can have boarded, however far it moved (a car sent
+    /// home to the lobby with its door shut parks there empty).
+    #[serde(default)]
+    empty: bool,
 }
 
 fn opened_before() -> bool {
@@ -197,6 +204,7 @@ impl Parking {
             sum: 0.0,
             n: 0,
             opened: false,
+            empty: false,
         }
     }
 
@@ -205,10 +213,11 @@ impl Parking {
     pub fn push(&mut self, x: &Sample, thr: f64) -> Option<f64> {
         let still = x.speed.is_finite() && x.speed <= thr;
         let closed = x.door.is_finite() && x.door < 0.5;
-        if !(still && closed && self.opened) {
+        if !(still && closed && (self.opened || self.empty)) {
             let out = (self.n >= PARKED_MIN_SAMPLES).then(|| self.sum / f64::from(self.n));
-            // Motion closes the way out; an open door at a standstill opens it. A reading
-            // missing from either leaves it as it was.
+            // Motion closes the way out; an open door at a standstill opens it. A speed
+            // reading missing leaves it as it was. An open door, or one not read, may have
+            // let someone in.
             let opened = if x.speed > thr {
                 false
             } else {
@@ -216,6 +225,7 @@ impl Parking {
             };
             *self = Parking {
                 opened,
+                empty: self.empty && closed,
                 ..Parking::new()
             };
             return out;
@@ -226,6 +236,7 @@ impl Parking {
         if x.time - self.since >= PARKED_S && x.load.is_finite() {
             self.sum += x.load;
             self.n = self.n.saturating_add(1);
+            self.empty = true;
         }
         None
     }
@@ -907,8 +918,9 @@ mod tests {
     fn a_car_stuck_with_its_passengers_is_no_parking_until_its_door_has_opened() {
         let mut limits = SensorLimits::default();
         limits.calibrate_load_zero(&day(0.0, 0.0, 1), 0.05);
-        // A day as `day`'s, then the car stops between floors with 25 % aboard, door closed,
-        // for an hour; freed, it opens its door, lets them out, and parks empty for an hour.
+        // A day as `day`'s; then 25 % board, the car stops between floors, door closed, for
+        // an hour; freed, it opens its door, lets them out and parks empty for an hour; then
+        // it is sent home with its door shut and parks there, empty, for another.
         let mut samples = day(DAY_S, 0.0, 2);
         let (t0, like) = (2.0 * DAY_S, samples[0]);
         let at = |k: u32, speed: f64, door: f64, load: f64| Sample {
@@ -918,38 +930,49 @@ mod tests {
             load,
             ..like
         };
-        samples.extend((0..60).map(|k| at(k, 1.5, 0.0, 25.0)));
-        samples.extend((60..3660).map(|k| at(k, 0.0, 0.0, 25.0)));
+        samples.extend((0..30).map(|k| at(k, 0.0, 1.0, 25.0)));
+        samples.extend((30..90).map(|k| at(k, 1.5, 0.0, 25.0)));
+        let stuck = samples.len();
+        samples.extend((90..3690).map(|k| at(k, 0.0, 0.0, 25.0)));
         let freed = samples.len();
-        samples.extend((3660..3690).map(|k| at(k, 0.0, 1.0, 0.0)));
-        samples.extend((3690..7290).map(|k| at(k, 0.0, 0.0, 0.0)));
-        samples.push(at(7290, 1.5, 0.0, 0.0));
+        samples.extend((3690..3720).map(|k| at(k, 0.0, 1.0, 0.0)));
+        samples.extend((3720..7320).map(|k| at(k, 0.0, 0.0, 0.0)));
+        samples.extend((7320..7380).map(|k| at(k, 1.5, 0.0, 0.0)));
+        let home = samples.len();
+        samples.extend((7380..10_980).map(|k| at(k, 0.0, 0.0, 0.0)));
+        samples.push(at(10_980, 1.5, 0.0, 0.0));
 
         let mut check = SensorCheck::new();
         let mut drift_at = None;
+        let mut witnessed = Vec::new();
         for (i, x) in samples.iter().enumerate() {
             check.sample(x, &limits, 0.05);
             if check.load_zero_drift() && drift_at.is_none() {
                 drift_at = Some(i);
             }
+            let newest = check.newest_zero_witness().map(f64::from_bits);
+            if newest.is_some_and(|t| t > t0 && witnessed.last() != Some(&t)) {
+                witnessed.push(newest.unwrap_or(f64::NAN));
+            }
         }
         // The hour with people aboard reads 25 %: counted as a parking, it was a zero drift the
-        // moment the door opened. The empty hour after it is a witness, and a healthy one.
+        // moment the door opened. The empty hour after it is a witness, and so is the hour at
+        // home, where the car arrived with its door shut, empty since its last parking.
         assert_eq!(
             drift_at, None,
-            "the trapped passengers read as the empty car's zero"
+            "the trapped riders read as the empty car's zero"
         );
-        let newest = check.newest_zero_witness().map(f64::from_bits);
-        assert!(
-            newest.is_some_and(|t| t > samples[freed].time),
-            "{newest:?}"
+        assert_eq!(
+            witnessed,
+            [samples[home - 60].time, samples[samples.len() - 1].time],
+            "the empty hour after the rescue and the hour at home"
         );
 
         // Without the door's opening, the same hour is no parking either way.
         let mut parking = Parking::new();
-        let ends: Vec<f64> = samples[freed - 3660..freed]
+        let ends: Vec<f64> = samples[stuck - 90..freed]
             .iter()
-            .chain([&at(3660, 1.5, 0.0, 25.0)])
+            .chain([&at(3690, 1.5, 0.0, 25.0)])
             .filter_map(|x| parking.push(x, 0.05))
             .collect();
         assert!(ends.is_empty(), "{ends:?}");

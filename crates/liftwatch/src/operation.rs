@@ -120,7 +120,7 @@ use crate::features::Trip;
 use crate::mode::FaultMode;
 use crate::risk::sequential::{gaussian_llr, CLIP, N_SIZES, SIZES};
 use crate::rng::{moving_blocks, BlockStart, Rng};
-use crate::sample::{Sample, DAY_S, HOUR_S};
+use crate::sample::{Sample, DAY_S, HOUR_S, YEAR_DAYS};
 use crate::stats::{median, robust_sigma, sorted_quantile};
 
 /// A door that opens again within this long (s) of closing, the car not having moved, is
@@ -1568,7 +1568,7 @@ impl DoorReference {
         }
         // Thresholds: the highest G over bootstrapped healthy years (day-long blocks of the
         // training's cycles), never below Lorden's bound for four statistics.
-        let per_year = r.cycles_per_day * 365.25;
+        let per_year = r.cycles_per_day * YEAR_DAYS;
         let lorden = (4.0 * per_year / target).ln().max(1.0);
         let total = (DOOR_BOOTSTRAP_YEARS / target).clamp(1.0, 100.0) * per_year;
         let z: Vec<[f64; 2]> = scored.iter().map(|c| scores(&r, c)).collect();

@@ -13,8 +13,11 @@ pub const HOUR_S: f64 = 3600.0;
 /// Seconds in a day of the data clock: Unix time's day, without leap seconds.
 pub const DAY_S: f64 = 24.0 * HOUR_S;
 
-/// Seconds in a Julian year (365.25 days), the year of rates per elevator-year.
-pub const YEAR_S: f64 = 365.25 * DAY_S;
+/// Days in a Julian year, the year of rates per elevator-year.
+pub const YEAR_DAYS: f64 = 365.25;
+
+/// Seconds in a Julian year ([`YEAR_DAYS`] days).
+pub const YEAR_S: f64 = YEAR_DAYS * DAY_S;
 
 /// Signals of one aligned instant (DATA.md §2). `NaN` marks a missing value.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]

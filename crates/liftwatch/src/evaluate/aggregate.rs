@@ -7,8 +7,8 @@ use serde::Serialize;
 
 use super::metrics::MethodResult;
 use super::suite::CaseResult;
-use super::YEAR_DAYS;
 use crate::mode::FaultMode;
+use crate::sample::YEAR_DAYS;
 use crate::sim::scenario::healthy_or_mode;
 use crate::stats::median;
 

@@ -14,9 +14,9 @@
 
 use serde::Serialize;
 
-use super::YEAR_DAYS;
 use crate::error::{Error, Result};
 use crate::rng::{moving_blocks, BlockStart, Rng};
+use crate::sample::YEAR_DAYS;
 use crate::stats::{median, MAD_TO_SIGMA};
 
 /// CUSUM reference value k (units of the healthy trip-mean spread): tuned to a 1σ shift.

@@ -25,7 +25,7 @@ use serde::Serialize;
 use super::charts::{Chart, ChartCalibration};
 use super::floor::{floor_delay_s, oracle_threshold};
 use super::trips::{TripGrouper, TripSummary};
-use super::{PERSISTENT_TRIPS, YEAR_DAYS};
+use super::PERSISTENT_TRIPS;
 use crate::alarm::{Event, Evidence, Level};
 use crate::align::SampleSink;
 use crate::error::{Error, Result};
@@ -35,7 +35,7 @@ use crate::mode::{FaultMode, MACHINE_MODES};
 use crate::monitor::{Monitor, MonitorRow};
 use crate::operation::OperationEvent;
 use crate::risk::DriftScale;
-use crate::sample::{Sample, DAY_S};
+use crate::sample::{Sample, DAY_S, YEAR_DAYS};
 use crate::sim::logger::RawAligner;
 use crate::sim::{self, SimSink, TruthRow};
 

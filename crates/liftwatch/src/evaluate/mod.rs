@@ -96,9 +96,6 @@ pub const PERSISTENT_TRIPS: usize = 20;
 pub const MIN_TRIP_ROWS: usize = 3;
 
 /// Seconds in a day.
-/// Days in an elevator-year (Julian year).
-const YEAR_DAYS: f64 = 365.25;
-
 /// The whole evaluation as written to `evaluation.json`.
 #[derive(Clone, Debug, Serialize)]
 pub struct Evaluation {

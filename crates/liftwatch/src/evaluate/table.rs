@@ -3,8 +3,9 @@
 
 use super::aggregate::{DelayComparison, Versus};
 use super::metrics::MethodResult;
-use super::{Evaluation, YEAR_DAYS};
+use super::Evaluation;
 use crate::mode::FaultMode;
+use crate::sample::YEAR_DAYS;
 use crate::sim::truth_name;
 
 /// A figure with `prec` decimals, `-` when absent.

@@ -4,7 +4,7 @@
 use liftwatch::evaluate::{self, Case, MethodResult, SuiteConfig};
 use liftwatch::mode::FaultMode;
 use liftwatch::mode::FaultMode as Named;
-use liftwatch::sample::DAY_S;
+use liftwatch::sample::{DAY_S, YEAR_DAYS};
 use liftwatch::sim::{Ramp, Scenario};
 
 fn method<'a>(r: &'a evaluate::CaseResult, name: &str) -> &'a MethodResult {
@@ -60,7 +60,7 @@ fn strong_fault_is_detected_and_healthy_run_stays_quiet() {
             "{name}: a healthy run has nothing to detect"
         );
         assert!((m.exposure_days - 1.5).abs() < 1e-9);
-        let rate = m.false_signals as f64 / 1.5 * 365.25;
+        let rate = m.false_signals as f64 / 1.5 * YEAR_DAYS;
         assert!(
             (m.false_per_year - rate).abs() < 1e-6 * rate.max(1.0),
             "{name}: {m:?}"

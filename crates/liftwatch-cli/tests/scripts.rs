@@ -412,6 +412,15 @@ fn evaluate_writes_the_floor_the_delays_and_their_figure() {
             "a floor exactly for the machine faults: {c}"
         );
     }
+    // The quick suite's car stuck between floors for an hour is reported as such within
+    // minutes of its stop (the stuck check's 5 min and the aligner's lag), and nowhere else.
+    let stuck = &j["outages"][0];
+    assert_eq!(stuck["case"], "E2 outage stuck", "{j}");
+    assert_eq!(stuck["reported"], true, "{j}");
+    assert_eq!(stuck["kind_correct"], true, "{j}");
+    assert_eq!(stuck["false_reports"], 0, "{j}");
+    let after_h = stuck["after_h"].as_f64().expect("hours to the report");
+    assert!((0.08..0.2).contains(&after_h), "{after_h} h");
     let svg = std::fs::read_to_string(out.join("evaluation.svg")).expect("evaluation.svg");
     assert!(svg.contains("oracle floor"), "the figure's left panel");
     assert!(std::fs::metadata(out.join("evaluation.png")).is_ok_and(|m| m.len() > 1000));

@@ -131,5 +131,19 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         "seconds": seconds,
         "aggregates": serde_json::to_value(&ev.aggregates)?,
         "delays": serde_json::to_value(ev.delays)?,
+        "outages": ev
+            .cases
+            .iter()
+            .filter_map(|c| {
+                let r = c.methods.first()?.outage.as_ref()?;
+                Some(serde_json::json!({
+                    "case": c.case.name,
+                    "reported": r.reported.is_some(),
+                    "after_h": r.after_h,
+                    "kind_correct": r.kind_correct,
+                    "false_reports": r.false_reports,
+                }))
+            })
+            .collect::<Vec<_>>(),
     }))
 }

@@ -56,7 +56,10 @@ pub struct Aggregate {
 }
 
 /// Aggregates per method and true mode (healthy rows carry the false-advisory rate of the
-/// healthy runs; every row counts false signals over its cases' pre-onset spans).
+/// healthy runs; every row counts false signals over its cases' pre-onset spans). The outage
+/// cases, healthy machines whose car stops for hours, are a group of their own: the table
+/// reports each on a line ([`super::metrics::OutageResult`]), so the healthy rows and the
+/// threshold method's quiet elevators read as they did before those cases existed.
 pub fn aggregate(results: &[CaseResult]) -> Vec<Aggregate> {
     let mut out = Vec::new();
     for (mi, method) in ["liftwatch", "threshold", "cusum", "ewma"]
@@ -73,7 +76,7 @@ pub fn aggregate(results: &[CaseResult]) -> Vec<Aggregate> {
             let machine = truth.is_some_and(FaultMode::is_machine);
             let rs: Vec<&MethodResult> = results
                 .iter()
-                .filter(|c| c.case.truth == truth)
+                .filter(|c| c.case.truth == truth && c.case.outage.is_none())
                 .filter_map(|c| c.methods.get(mi))
                 .collect();
             if rs.is_empty() {
@@ -230,7 +233,7 @@ pub fn delay_pairs(results: &[CaseResult]) -> DelayPairs {
     let quiet = |e: usize| {
         !results
             .iter()
-            .filter(|c| c.case.elevator == e)
+            .filter(|c| c.case.elevator == e && c.case.outage.is_none())
             .any(|c| c.methods.get(1).is_some_and(|m| m.false_signals > 0))
     };
     let mut out = DelayPairs::default();
@@ -300,6 +303,7 @@ mod tests {
                 sensor_fault: None,
                 days: 7.0,
                 onset_days: truth.map(|_| 3.0),
+                outage: None,
             },
             trips: 1000,
             late_mean_z: 0.0,

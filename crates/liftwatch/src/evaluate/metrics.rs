@@ -33,10 +33,11 @@ use crate::fit::FittedModel;
 use crate::ingest::Signal;
 use crate::mode::{FaultMode, MACHINE_MODES};
 use crate::monitor::{Monitor, MonitorRow};
-use crate::operation::OperationEvent;
+use crate::operation::{OperationEvent, Outage};
 use crate::risk::DriftScale;
-use crate::sample::{Sample, DAY_S, YEAR_DAYS};
+use crate::sample::{Sample, DAY_S, HOUR_S, YEAR_DAYS};
 use crate::sim::logger::RawAligner;
+use crate::sim::service::OutageTruth;
 use crate::sim::{self, SimSink, TruthRow};
 
 /// One method's result on one case.
@@ -79,10 +80,17 @@ pub struct MethodResult {
     /// healthy throughout, so every one is a nuisance.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub door_advisories: Option<usize>,
-    /// liftwatch only: outages reported over the whole run (out of service or stuck). No car
-    /// of the suite is ever out of service, so every one is a nuisance.
+    /// liftwatch only: outages reported over the whole run (out of service or stuck). Only an
+    /// outage case's car is ever out of service, so every other one is a nuisance.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub outages: Option<usize>,
+    /// liftwatch on an outage case only: how its outage was reported.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub outage: Option<OutageResult>,
+    /// liftwatch only: every outage it reported, so that a false one in the table can be read
+    /// back in `evaluation.json` (when, where, after how many expected trips).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub outage_reports: Vec<Outage>,
     /// liftwatch only: every event of the run (level changes, mode named, evidence), so that
     /// a false advisory or a wrong mode in the table can be read back in `evaluation.json`.
     #[serde(skip_serializing_if = "Vec::is_empty")]
@@ -109,7 +117,59 @@ impl MethodResult {
             leak_z: None,
             door_advisories: None,
             outages: None,
+            outage: None,
+            outage_reports: Vec::new(),
             events: Vec::new(),
+        }
+    }
+}
+
+/// How liftwatch reported an outage case's outage.
+///
+/// ```text
+/// reported      a reported outage overlaps the true one (its start before the true end, its
+///               end, or none yet, after the true start)
+/// after h       (t_concluded − t_true start)/h: how long the owner waited to hear of it
+/// start error   t_reported start − t_true start (s): the true start is the end of the car's
+///               last door cycle, or the stuck car's stop; the report's the car's last motion
+/// end error     t_reported end − t_true end (s): when the car moved again
+/// false         reports that overlap no true outage (a freed car called stuck again)
+/// ```
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct OutageResult {
+    /// The outage as the simulator made it.
+    pub truth: OutageTruth,
+    /// The first report that overlaps it; None when it was missed.
+    pub reported: Option<Outage>,
+    /// Hours from the true start to the report's conclusion.
+    pub after_h: Option<f64>,
+    /// The report's start less the true start (s).
+    pub start_error_s: Option<f64>,
+    /// The report's end less the true end (s); None when missed or never ended.
+    pub end_error_s: Option<f64>,
+    /// Whether the report named the true kind (out of service, stuck between floors).
+    pub kind_correct: Option<bool>,
+    /// Reports that overlap no true outage.
+    pub false_reports: usize,
+}
+
+impl OutageResult {
+    /// The result for the true outage `truth` among the run's `reports`.
+    pub fn of(truth: &OutageTruth, reports: &[Outage]) -> OutageResult {
+        // An open report's end is NaN: it overlaps whatever started before it.
+        let overlaps =
+            |o: &Outage| o.start <= truth.end_s && (o.end.is_nan() || o.end >= truth.start_s);
+        let reported = reports.iter().find(|o| overlaps(o)).copied();
+        OutageResult {
+            truth: truth.clone(),
+            after_h: reported.map(|o| (o.detected_at - truth.start_s) / HOUR_S),
+            start_error_s: reported.map(|o| o.start - truth.start_s),
+            end_error_s: reported
+                .map(|o| o.end - truth.end_s)
+                .filter(|e| e.is_finite()),
+            kind_correct: reported.map(|o| o.kind == truth.kind),
+            false_reports: reports.iter().filter(|o| !overlaps(o)).count(),
+            reported,
         }
     }
 }
@@ -133,6 +193,8 @@ pub(super) struct Metrics<'a> {
     /// The plant's true friction at the rated speed, F_c + c·v_r (N): what a friction
     /// change is a share of, in the newtons the events report it in.
     pub friction_n: f64,
+    /// The outages the simulator made (an outage case's one; none elsewhere).
+    pub outages: &'a [OutageTruth],
 }
 
 impl Metrics<'_> {
@@ -197,7 +259,11 @@ impl Metrics<'_> {
         }
         let mut r = self.result("liftwatch", false_signals, detected);
         r.door_advisories = Some(self.sink.door_advisories);
-        r.outages = Some(self.sink.outages);
+        r.outages = Some(self.sink.outages.len());
+        r.outage = self
+            .outages
+            .first()
+            .map(|t| OutageResult::of(t, &self.sink.outages));
         if self.truth.is_some() {
             r.mode = mode;
             r.mode_correct = mode.map(|m| {
@@ -214,6 +280,7 @@ impl Metrics<'_> {
                 .and_then(|e| self.drift_z(e));
         }
         r.events = self.sink.events.clone();
+        r.outage_reports = self.sink.outages.clone();
         r
     }
 
@@ -363,8 +430,8 @@ pub(super) struct CaseSink {
     pub(super) events: Vec<Event>,
     /// Door advisories the liftwatch monitor raised.
     pub(super) door_advisories: usize,
-    /// Outages the liftwatch monitor reported.
-    pub(super) outages: usize,
+    /// Outages the liftwatch monitor reported, each with its end once the car moved again.
+    pub(super) outages: Vec<Outage>,
     /// Times the threshold method's alarm switched on.
     pub(super) thr_activations: Vec<f64>,
     pub(super) thr_prev: Level,
@@ -380,7 +447,13 @@ impl CaseSink {
         }
         match r.operation.as_deref() {
             Some(OperationEvent::Door { raised: true, .. }) => self.door_advisories += 1,
-            Some(OperationEvent::OutageStart(_)) => self.outages += 1,
+            Some(OperationEvent::OutageStart(o)) => self.outages.push(*o),
+            Some(OperationEvent::OutageEnd(o)) => {
+                match self.outages.iter_mut().rfind(|k| k.start == o.start) {
+                    Some(k) => *k = *o,
+                    None => self.outages.push(*o),
+                }
+            }
             _ => {}
         }
         self.trips.extend(self.seg_pinn.push(r));

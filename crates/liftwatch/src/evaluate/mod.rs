@@ -44,6 +44,16 @@
 //! against the threshold method's and the floor's ([`compare_delays`]; the text table's last
 //! lines, and the figure `evaluate` draws beside `evaluation.json`).
 //!
+//! Outage cases: per elevator a healthy car out of service for 4 h at a landing, door open or
+//! closed, and one stuck between landings for 1 h, each due at 10:00 on the first weekday at
+//! or after the fault cases' onset ([`suite::outage_plan`]). Their metrics
+//! ([`metrics::OutageResult`]) are whether liftwatch reported the outage, after how long,
+//! how far its start and end lie from the truth, whether it named the kind, and its reports
+//! where the car served; any fault advisory of theirs is false. They are a group of their
+//! own, left out of the healthy rows and the threshold method's quiet elevators, so those
+//! read as before the cases existed; the table gives each a line, and counts the outages
+//! reported where a car served over every case.
+//!
 //! Mode implied by the threshold method: the voltage limit is the conventional motor check and
 //! the friction-force limit the lubrication check; after the onset the limit that was exceeded
 //! on more samples names the mode (`unknown` on a tie). The method has no brake check, so it
@@ -95,7 +105,6 @@ pub const PERSISTENT_TRIPS: usize = 20;
 /// Fewest moving rows with a voltage residual for a trip to enter the charts.
 pub const MIN_TRIP_ROWS: usize = 3;
 
-/// Seconds in a day.
 /// The whole evaluation as written to `evaluation.json`.
 #[derive(Clone, Debug, Serialize)]
 pub struct Evaluation {

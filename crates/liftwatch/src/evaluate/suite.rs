@@ -27,11 +27,28 @@ use crate::rng::Rng;
 use crate::sim::plant::efficiency_problem;
 use crate::sim::scenario::healthy_or_mode;
 use crate::sim::scenario::VOLTAGE_OFFSET_V;
+use crate::sim::service::{OutageKind, OutagePlan};
 use crate::sim::{self, DriveAtRest, Ramp, Scenario, SensorFault, SimConfig, SimElevator};
 
 /// Hour of the day at which a training shorter than a day starts: 07:00, the morning peak
 /// of the simulator's office traffic, as a technician would record the paper's 3 hours.
 pub const SHORT_TRAINING_START_H: f64 = 7.0;
+
+/// Hour of the day at which an outage case's outage is due: 10:00 on a weekday, when the
+/// simulator's office building is in service and a stopped car is missed, as it would be on
+/// the days an owner asks about. A car stopped at night is an outage the traffic cannot tell
+/// from a quiet night until the morning, which measures the traffic, not the monitor.
+pub const OUTAGE_START_H: f64 = 10.0;
+/// How long an outage case's car stays out of service: 4 h, a maintenance visit or a car
+/// switched off for the morning (long enough for the office's mid-morning traffic to miss it).
+pub const OUT_OF_SERVICE_S: f64 = 4.0 * HOUR_S;
+/// How long an outage case's car stays stuck between landings: 1 h, within the 20-60 min a
+/// rescue takes (`crate::sim::service`).
+pub const STUCK_S: f64 = HOUR_S;
+/// Time an outage case keeps after its outage ends (s): the car's return to service must be
+/// seen, and a second report after it (as a freed stuck car once raised) must have the time
+/// to appear.
+pub const AFTER_OUTAGE_S: f64 = 6.0 * HOUR_S;
 
 /// One elevator of the suite.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -60,6 +77,11 @@ pub struct Case {
     pub days: f64,
     /// Onset (days from the start); None when healthy.
     pub onset_days: Option<f64>,
+    /// An outage of a healthy car ([`outage_plan`]): the machine stays healthy, so any fault
+    /// advisory of the run is false, and the metrics ask whether the outage was reported, when
+    /// and how right ([`super::metrics::OutageResult`]). None in every other case.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub outage: Option<OutagePlan>,
 }
 
 /// Settings of a suite.
@@ -177,6 +199,7 @@ pub fn cases(cfg: &SuiteConfig, fleet: &[FleetElevator]) -> Result<Vec<Case>> {
             sensor_fault: None,
             days: cfg.healthy_days,
             onset_days: None,
+            outage: None,
         });
         let shapes: Vec<(Ramp, f64)> = if cfg.quick {
             vec![(Ramp::Linear, 1.0)]
@@ -211,6 +234,7 @@ pub fn cases(cfg: &SuiteConfig, fleet: &[FleetElevator]) -> Result<Vec<Case>> {
                     sensor_fault: None,
                     days: cfg.fault_days,
                     onset_days: Some(onset / DAY_S),
+                    outage: None,
                 });
             }
         }
@@ -246,7 +270,27 @@ pub fn cases(cfg: &SuiteConfig, fleet: &[FleetElevator]) -> Result<Vec<Case>> {
                 sensor_fault: Some(f),
                 days: cfg.fault_days,
                 onset_days: Some(onset / DAY_S),
+                outage: None,
             });
+        }
+        let outages: &[OutageKind] = if cfg.quick {
+            &[OutageKind::StuckBetweenFloors]
+        } else {
+            &[OutageKind::OutOfService, OutageKind::StuckBetweenFloors]
+        };
+        for &kind in outages {
+            if let Some(plan) = outage_plan(kind, onset, span) {
+                out.push(Case {
+                    name: format!("{} outage {}", fe.name, outage_name(kind)),
+                    elevator: ei,
+                    truth: None,
+                    scenario: Scenario::healthy(),
+                    sensor_fault: None,
+                    days: cfg.fault_days,
+                    onset_days: None,
+                    outage: Some(plan),
+                });
+            }
         }
     }
     if !cfg.only.is_empty() {
@@ -259,6 +303,38 @@ pub fn cases(cfg: &SuiteConfig, fleet: &[FleetElevator]) -> Result<Vec<Case>> {
         }
     }
     Ok(out)
+}
+
+/// The outage of an outage case of `kind` in a run of `span` seconds: due at the first
+/// [`OUTAGE_START_H`] of a weekday at or after `onset` (the fault cases' onset, so that it
+/// follows as much monitoring as they do), lasting [`OUT_OF_SERVICE_S`] or [`STUCK_S`]; `None`
+/// when the run ends less than [`AFTER_OUTAGE_S`] after it (no outage case then).
+pub fn outage_plan(kind: OutageKind, onset: f64, span: f64) -> Option<OutagePlan> {
+    let at = OUTAGE_START_H * HOUR_S;
+    // Day 0 of a run is a Monday (`SimConfig::start_s`): days 5 and 6 of each week are its
+    // weekend.
+    let mut day = ((onset - at) / DAY_S).ceil().max(0.0);
+    while day.rem_euclid(7.0) >= 5.0 {
+        day += 1.0;
+    }
+    let duration_s = match kind {
+        OutageKind::OutOfService => OUT_OF_SERVICE_S,
+        OutageKind::StuckBetweenFloors => STUCK_S,
+    };
+    let start_s = day * DAY_S + at;
+    (start_s + duration_s + AFTER_OUTAGE_S <= span).then_some(OutagePlan {
+        kind,
+        start_s,
+        duration_s,
+    })
+}
+
+/// An outage kind as a case name has it.
+fn outage_name(kind: OutageKind) -> &'static str {
+    match kind {
+        OutageKind::OutOfService => "out-of-service",
+        OutageKind::StuckBetweenFloors => "stuck",
+    }
 }
 
 fn ramp_name(r: Ramp) -> &'static str {
@@ -383,6 +459,7 @@ pub fn run_case(case: &Case, trained: &Trained, cfg: &SuiteConfig) -> Result<Cas
     sc.plant = Some(trained.plant.clone());
     sc.scenario = case.scenario.clone();
     sc.sensor_fault = case.sensor_fault.clone();
+    sc.outages.extend(case.outage);
     let model = &trained.model;
     let mut sink = CaseSink {
         pinn: Monitor::new(model, Method::Pinn),
@@ -393,7 +470,7 @@ pub fn run_case(case: &Case, trained: &Trained, cfg: &SuiteConfig) -> Result<Cas
         thr_trips: Vec::new(),
         events: Vec::new(),
         door_advisories: 0,
-        outages: 0,
+        outages: Vec::new(),
         thr_activations: Vec::new(),
         thr_prev: Level::Normal,
         severity: Vec::with_capacity((case.days * DAY_S) as usize + 2),
@@ -402,7 +479,7 @@ pub fn run_case(case: &Case, trained: &Trained, cfg: &SuiteConfig) -> Result<Cas
     // The monitors watch the raw log aligned as it is logged, as in the field; the truth rows
     // only give the severity per second.
     let mut log = AlignedLog::new(&mut sink)?;
-    sim::run(&sc, &mut log, &mut |_| {})?;
+    let truth = sim::run(&sc, &mut log, &mut |_| {})?;
     log.finish()?;
     sink.finish();
     let onset = case.onset_days.map(|d| sc.start_s + d * DAY_S);
@@ -417,6 +494,7 @@ pub fn run_case(case: &Case, trained: &Trained, cfg: &SuiteConfig) -> Result<Cas
         scenario: &case.scenario,
         f_c: trained.plant.f_c,
         friction_n: trained.plant.f_c + trained.plant.c_visc * trained.plant.rated.rated_speed_mps,
+        outages: &truth.outages,
     };
     let methods = vec![
         ctx.liftwatch(),

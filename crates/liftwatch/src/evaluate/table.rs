@@ -3,9 +3,11 @@
 
 use super::aggregate::{DelayComparison, Versus};
 use super::metrics::MethodResult;
+use super::suite::OUTAGE_START_H;
 use super::Evaluation;
 use crate::mode::FaultMode;
-use crate::sample::YEAR_DAYS;
+use crate::operation::OutageKind;
+use crate::sample::{HOUR_S, YEAR_DAYS};
 use crate::sim::truth_name;
 
 /// A figure with `prec` decimals, `-` when absent.
@@ -117,17 +119,24 @@ pub fn table(ev: &Evaluation) -> String {
         ));
     }
     s.push_str(&delays_text(&ev.delays));
-    let (doors, outages, days) = ev.cases.iter().fold((0, 0, 0.0), |(n, o, d), c| {
-        let count =
-            |f: fn(&MethodResult) -> Option<usize>| c.methods.iter().find_map(f).unwrap_or(0);
-        (
-            n + count(|m| m.door_advisories),
-            o + count(|m| m.outages),
-            d + c.case.days,
-        )
-    });
+    s.push_str(&outages_text(ev));
+    let (mut doors, mut false_outages, mut outage_case_advisories, mut days) = (0, 0, 0, 0.0);
+    for c in &ev.cases {
+        let Some(lw) = c.methods.first() else {
+            continue;
+        };
+        doors += lw.door_advisories.unwrap_or(0);
+        match &lw.outage {
+            Some(r) => {
+                false_outages += r.false_reports;
+                outage_case_advisories += lw.false_signals;
+            }
+            None => false_outages += lw.outages.unwrap_or(0),
+        }
+        days += c.case.days;
+    }
     s.push_str(&format!(
-        "\nliftwatch door advisories (every door of the suite is healthy): {doors}; outages reported (no car of the suite is ever out of service): {outages}; in {:.2} elevator-years of runs\n",
+        "\nliftwatch door advisories (every door of the suite is healthy): {doors}; outages reported where the car served: {false_outages}; fault advisories of the outage cases' healthy machines: {outage_case_advisories}; in {:.2} elevator-years of runs\n",
         days / YEAR_DAYS
     ));
     s.push_str(
@@ -140,6 +149,58 @@ pub fn table(ev: &Evaluation) -> String {
          detection / detections with a drift; persist d: threshold delay until its alarm is persistent\n",
     );
     s
+}
+
+/// One line per outage case: whether, when and how right liftwatch reported the outage of
+/// its healthy car, and its fault advisories (every one false); nothing when there is none.
+fn outages_text(ev: &Evaluation) -> String {
+    let mut s = String::new();
+    for c in &ev.cases {
+        let Some(r) = c.methods.first().and_then(|m| m.outage.as_ref()) else {
+            continue;
+        };
+        if s.is_empty() {
+            s.push_str(&format!(
+                "\noutages of healthy cars (due at {OUTAGE_START_H:02.0}:00 on a weekday):\n"
+            ));
+        }
+        let what = kind_text(r.truth.kind);
+        let hours = (r.truth.end_s - r.truth.start_s) / HOUR_S;
+        let report = match (&r.reported, r.after_h, r.start_error_s) {
+            (Some(o), Some(after), Some(start)) => format!(
+                "reported {} after {after:.2} h, its start {start:+.0} s, its end {}",
+                if r.kind_correct == Some(true) {
+                    "as such"
+                } else {
+                    kind_text(o.kind)
+                },
+                r.end_error_s
+                    .map_or("never seen".into(), |e| format!("{e:+.0} s")),
+            ),
+            _ => "not reported".into(),
+        };
+        s.push_str(&format!(
+            "{}: {what} {hours:.1} h, {report}; {} false report{}, {} fault advisor{}\n",
+            c.case.name,
+            r.false_reports,
+            if r.false_reports == 1 { "" } else { "s" },
+            c.methods[0].false_signals,
+            if c.methods[0].false_signals == 1 {
+                "y"
+            } else {
+                "ies"
+            },
+        ));
+    }
+    s
+}
+
+/// An outage's kind in the table's words.
+fn kind_text(kind: OutageKind) -> &'static str {
+    match kind {
+        OutageKind::OutOfService => "out of service",
+        OutageKind::StuckBetweenFloors => "stuck between floors",
+    }
 }
 
 /// Two lines (three with the quiet elevators): liftwatch's delays against the threshold

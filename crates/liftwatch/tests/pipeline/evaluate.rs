@@ -36,6 +36,7 @@ fn strong_fault_is_detected_and_healthy_run_stays_quiet() {
         sensor_fault: None,
         days: 1.5,
         onset_days: None,
+        outage: None,
     };
     let h = evaluate::run_case(&healthy, &trained, &cfg).unwrap();
     assert!(h.trips > 300, "{} trips in 1.5 days", h.trips);
@@ -78,6 +79,7 @@ fn strong_fault_is_detected_and_healthy_run_stays_quiet() {
         sensor_fault: None,
         days: 2.5,
         onset_days: Some(onset / DAY_S),
+        outage: None,
     };
     let f = evaluate::run_case(&fault, &trained, &cfg).unwrap();
     // More friction, more force, more voltage in both directions: the trip means rise.

@@ -335,8 +335,14 @@ pub fn summary(m: &fit::FittedModel, trips: usize, seconds: f64) -> String {
             ),
         };
         let silence = if op.checks_silence() {
+            let unseen = match op.unseen_hours.len() {
+                0 => String::new(),
+                n => format!(
+                    " ({n} hours of the week unseen: judged once the monitor has watched them)"
+                ),
+            };
             format!(
-                "out of service after {:.1} expected trips of silence",
+                "out of service after {:.1} expected trips of silence{unseen}",
                 op.outage_expected_trips
             )
         } else {

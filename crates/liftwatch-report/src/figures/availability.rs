@@ -183,8 +183,9 @@ fn text(c: &Ctx, days: &[DayUsage]) -> Vec<String> {
     );
     let what = match operation {
         Some(o) if o.checks_silence() => format!(
-            "An outage is a silence through hours in which the training week travelled (at \
-             least {} trips expected by then), or {stuck}.",
+            "An outage is a silence through hours in which the training travelled, or the \
+             monitor since saw the car travel in hours the training never saw (at least {} \
+             trips expected by then), or {stuck}.",
             num(o.outage_expected_trips)
         ),
         _ => format!(

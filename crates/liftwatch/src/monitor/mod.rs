@@ -654,6 +654,9 @@ impl Monitor {
     pub fn push_into(&mut self, x: &Sample, out: &mut MonitorRow) -> bool {
         self.st.samples = self.st.samples.saturating_add(1);
         self.st.last_time = x.time;
+        if self.st.operation.open.is_some() {
+            self.st.sensor.out_of_service();
+        }
         self.st.sensor.sample(
             x,
             &self.model.sensor,

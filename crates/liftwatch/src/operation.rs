@@ -796,6 +796,11 @@ pub struct OperationTracker {
     pub open: Option<Outage>,
     /// The last outage that ended.
     pub last_outage: Option<Outage>,
+    /// When a door held open for [`OUTAGE_MIN_S`] or more last closed (NaN: never): the car
+    /// stood out of use, an outage or not (one in an hour the training never saw goes
+    /// unjudged), and the calls that waited follow as after an outage.
+    #[serde(with = "exact", default = "crate::exact::nan")]
+    held_open_end: f64,
     /// Outages concluded.
     pub outages: u64,
     /// The door check.
@@ -850,6 +855,7 @@ impl OperationTracker {
             between_since: f64::NAN,
             open: None,
             last_outage: None,
+            held_open_end: f64::NAN,
             outages: 0,
             door: DoorCheck::default(),
             recent: VecDeque::new(),
@@ -1013,9 +1019,7 @@ impl OperationTracker {
         }
         let cycle = self.door_step(x);
         if let (Some(c), Some(dr)) = (cycle, r.and_then(|r| r.door.as_ref())) {
-            let backlog = self
-                .last_outage
-                .is_some_and(|o| c.start - o.end < OUTAGE_BACKLOG_S);
+            let backlog = c.start - self.back_in_use() < OUTAGE_BACKLOG_S;
             if dr.scores_cycle(&c) && self.open.is_none() && !backlog {
                 self.score_cycle(&c, dr);
             }
@@ -1100,6 +1104,9 @@ impl OperationTracker {
                     reopening,
                     exchange: (self.load_closed - low) + (x.load - low),
                 };
+                if c.duration_s >= OUTAGE_MIN_S {
+                    self.held_open_end = t;
+                }
                 let u = self.day_mut(t);
                 u.door_cycles += 1;
                 u.reopenings += u64::from(reopening);
@@ -1158,12 +1165,22 @@ impl OperationTracker {
     }
 
     /// True while an outage is under way or its backlog is served: from its start to
-    /// [`OUTAGE_BACKLOG_S`] after its end, `t` (s) in it.
+    /// [`OUTAGE_BACKLOG_S`] after its end (or after a door held open as long as an outage
+    /// lasts at least closed), `t` (s) in it.
     pub fn serving_backlog(&self, t: f64) -> bool {
-        self.open.is_some()
-            || self
-                .last_outage
-                .is_some_and(|o| t - o.end < OUTAGE_BACKLOG_S)
+        self.open.is_some() || t - self.back_in_use() < OUTAGE_BACKLOG_S
+    }
+
+    /// When the car last came back into use after standing out of it: the end of the last
+    /// outage, or the close of a door held open for [`OUTAGE_MIN_S`], whichever is later
+    /// (−∞ when neither happened).
+    fn back_in_use(&self) -> f64 {
+        let outage = self.last_outage.map_or(f64::NEG_INFINITY, |o| o.end);
+        if self.held_open_end > outage {
+            self.held_open_end
+        } else {
+            outage
+        }
     }
 
     /// The next event, at most one per call (the monitor takes one per sample).
@@ -2340,6 +2357,29 @@ mod tests {
             )
         });
         assert_eq!(outage_starts(&morning, silent_morning), 0);
+    }
+
+    /// A door held open for an hour at a landing is a car out of use whether or not an outage
+    /// was concluded (in an hour the training never saw none is): the three hours after it
+    /// closes are the waiting calls' backlog, as after an outage; a door open for a minute
+    /// is a door cycle.
+    #[test]
+    fn a_door_held_open_for_an_hour_is_followed_by_a_backlog() {
+        let mut tr = OperationTracker::new();
+        let feed = |tr: &mut OperationTracker, from: u32, to: u32, door: f64| {
+            for k in from..to {
+                tr.push(&sample(f64::from(k), 0.0, door, 3.0), 1.0, 0.05, None);
+            }
+        };
+        feed(&mut tr, 0, 100, 0.0);
+        feed(&mut tr, 100, 160, 1.0);
+        feed(&mut tr, 160, 200, 0.0);
+        assert!(!tr.serving_backlog(200.0), "a minute's door cycle");
+        feed(&mut tr, 200, 3800, 1.0);
+        feed(&mut tr, 3800, 3900, 0.0);
+        assert!(tr.serving_backlog(3900.0) && tr.serving_backlog(3800.0 + OUTAGE_BACKLOG_S - 1.0));
+        assert!(!tr.serving_backlog(3800.0 + OUTAGE_BACKLOG_S));
+        assert_eq!(tr.outages, 0);
     }
 
     /// Trained Monday to Wednesday on an office (a trip every 2 min from 07:00 to 19:00),

@@ -533,6 +533,41 @@ pub fn run_case(case: &Case, trained: &Trained, cfg: &SuiteConfig) -> Result<Cas
 mod tests {
     use super::*;
 
+    /// An outage case's outage is due at 10:00 on the first weekday at or after the onset
+    /// (day 0 a Monday), and there is none when the run ends too soon after it.
+    #[test]
+    fn an_outage_falls_on_the_first_weekday_morning_after_the_onset() {
+        let start = |onset_days: f64, span_days: f64| {
+            outage_plan(
+                OutageKind::OutOfService,
+                onset_days * DAY_S,
+                span_days * DAY_S,
+            )
+            .map(|p| p.start_s / DAY_S)
+        };
+        let ten = OUTAGE_START_H / 24.0;
+        // The 7-day runs' onset, day 2.8: Thursday morning, day 3.
+        assert_eq!(start(2.8, 7.0), Some(3.0 + ten));
+        // Before 10:00 on a Wednesday: that morning.
+        assert_eq!(start(2.2, 7.0), Some(2.0 + ten));
+        // A Friday afternoon: over the weekend to Monday, day 7.
+        assert_eq!(start(4.6, 14.0), Some(7.0 + ten));
+        // A run that ends before the outage and the hours after it: no case.
+        assert_eq!(start(2.8, 3.5), None);
+        let stuck = outage_plan(OutageKind::StuckBetweenFloors, 0.0, DAY_S).unwrap();
+        assert_eq!(
+            (stuck.start_s, stuck.duration_s),
+            (OUTAGE_START_H * HOUR_S, STUCK_S)
+        );
+        let names: Vec<String> = cases(&SuiteConfig::new(1, true), &fleet(true))
+            .unwrap()
+            .into_iter()
+            .filter(|c| c.outage.is_some())
+            .map(|c| c.name)
+            .collect();
+        assert_eq!(names, ["E2 outage stuck"]);
+    }
+
     /// `--only` keeps the named cases as the whole suite has them (their elevator's place in
     /// the fleet included, which their seeds derive from), and refuses a selection of none.
     #[test]

@@ -874,9 +874,11 @@ impl OperationTracker {
     /// the rate it counted there, at most its hour of the day's over the training.
     fn rate(&self, h: usize, r: &OperationReference) -> f64 {
         match self.learnt.get(h) {
-            Some(Some(c)) if c.hours >= LEARNT_MIN_H => {
-                (c.starts / c.hours).min(r.hour_of_day_rates.get(h % 24).copied().unwrap_or(0.0))
-            }
+            Some(Some(c)) if c.hours >= LEARNT_MIN_H => own_rate(
+                c.starts,
+                c.hours,
+                r.hour_of_day_rates.get(h % 24).copied().unwrap_or(0.0),
+            ),
             _ => r.trips_per_hour.get(h).copied().unwrap_or(0.0),
         }
     }
@@ -1175,12 +1177,9 @@ impl OperationTracker {
     /// outage, or the close of a door held open for [`OUTAGE_MIN_S`], whichever is later
     /// (−∞ when neither happened).
     fn back_in_use(&self) -> f64 {
+        // `max` passes over the NaN of a door never held open.
         let outage = self.last_outage.map_or(f64::NEG_INFINITY, |o| o.end);
-        if self.held_open_end > outage {
-            self.held_open_end
-        } else {
-            outage
-        }
+        self.held_open_end.max(outage)
     }
 
     /// The next event, at most one per call (the monitor takes one per sample).
@@ -1403,7 +1402,7 @@ fn hourly_rates(
     let seen = |b: usize| hours[b] >= SEEN_MIN_H;
     let by_day = hour_of_day_rates(hours, starts);
     let pooled = |b: usize| by_day[b % 24];
-    let own = |b: usize| (starts[b] / hours[b]).min(pooled(b));
+    let own = |b: usize| own_rate(starts[b], hours[b], pooled(b));
     let quietest = (0..HOURS_PER_WEEK)
         .filter(|&b| seen(b))
         .map(own)
@@ -1422,6 +1421,13 @@ fn hourly_rates(
             }
         })
         .collect()
+}
+
+/// An hour of the week's own rate, `starts` trips in `hours` of data, at most `pooled`, its
+/// hour of the day's (module docs, "Why an hour's rate is at most its hour of the day's"):
+/// the rule of a seen hour in the training and of an unseen one the monitor has watched.
+fn own_rate(starts: f64, hours: f64, pooled: f64) -> f64 {
+    (starts / hours).min(pooled)
 }
 
 /// Each hour of the day's trip rate pooled over the hours of the week seen for
@@ -1617,21 +1623,21 @@ impl OperationReference {
         let quiet = silences.first().map_or(0.0, |s| s.expected_trips);
         let span_days = samples.len() as f64 * step_s / DAY_S;
         probe.quiet_max_expected_trips = quiet;
-        probe.outage_expected_trips = tail_limit(&silences, span_days, target)
-            .map_or(outage_limit(quiet), |tail| tail.max(outage_limit(quiet)));
+        let margin = outage_limit(quiet);
+        probe.outage_expected_trips =
+            tail_limit(&silences, span_days, target).map_or(margin, |tail| tail.max(margin));
         probe.landings_m = learn_landings(trips, floors);
         probe.level_tolerance_m = level_tolerance(trips, floors, &probe.landings_m);
         probe.door = DoorReference::learn(&cycles, step_s, span_days, target);
         // The monitor learns the hours it never saw only where the training judges silences
-        // at all (it saw every hour of the day).
-        let by_day = hour_of_day_rates(&hours, &starts);
-        if probe.checks_silence() && by_day.iter().all(|r| r.is_finite()) {
+        // at all: it saw every hour of the day, so each has a pooled rate.
+        if probe.checks_silence() {
             probe.unseen_hours = (0..HOURS_PER_WEEK)
                 .filter(|&b| hours[b] < SEEN_MIN_H)
                 .filter_map(|b| u8::try_from(b).ok())
                 .collect();
             if !probe.unseen_hours.is_empty() {
-                probe.hour_of_day_rates = by_day.to_vec();
+                probe.hour_of_day_rates = hour_of_day_rates(&hours, &starts).to_vec();
             }
         }
         Learnt {

@@ -240,9 +240,7 @@ impl Parking {
         }
         None
     }
-}
 
-impl Parking {
     /// The car is out of service: the stop under way is no parking, and the car is not known
     /// empty until its door has opened again after it moves. Who stands in a car out of
     /// service is not the empty car: technicians and their tools on a maintenance visit, or a
@@ -597,13 +595,13 @@ impl SensorCheck {
         self.rest_g[0].max(self.rest_g[1]) >= REST_H
     }
 
-    /// Takes one sample into the zero check: a parking that ends sets or clears the drift.
     /// The car is out of service (an outage the monitor concluded): its stop is no parking
     /// ([`Parking::void`]).
     pub fn out_of_service(&mut self) {
         self.parking.void();
     }
 
+    /// Takes one sample into the zero check: a parking that ends sets or clears the drift.
     fn zero_check(&mut self, x: &Sample, cfg: &SensorLimits, thr: f64) {
         let Some(z) = self.parking.push(x, thr) else {
             return;

@@ -821,10 +821,6 @@ pub struct OperationTracker {
     /// it is lowering itself.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     watching: Option<HourWatch>,
-    /// The last sample was moving: the next sample at rest ends its trip, the next moving
-    /// one after a rest starts one.
-    #[serde(default)]
-    moving_prev: bool,
     /// The hour and the day of the last sample ([`BinMemo`]).
     #[serde(skip)]
     hour_memo: BinMemo,
@@ -863,7 +859,6 @@ impl OperationTracker {
             queue: VecDeque::new(),
             learnt: Vec::new(),
             watching: None,
-            moving_prev: false,
             hour_memo: BinMemo::default(),
             day_memo: BinMemo::default(),
         }
@@ -884,10 +879,11 @@ impl OperationTracker {
     }
 
     /// Counts the sample at `t` into its hour of the week when the training never saw that
-    /// hour: its hours of speed data, and a trip when it starts one. An hour is added to what
-    /// was learnt when it ends, unless an outage was under way in it: a car out of service
-    /// says nothing of the building's traffic.
-    fn learn_hour(&mut self, t: f64, step_s: f64, moving: bool, r: &OperationReference) {
+    /// hour: its hours of speed data (the trips it starts are counted by [`Self::trip`], from
+    /// the trips the features stage found, as the training counts them). An hour is added to
+    /// what was learnt when it ends, unless an outage was under way in it: a car out of
+    /// service says nothing of the building's traffic.
+    fn learn_hour(&mut self, t: f64, step_s: f64, r: &OperationReference) {
         if r.unseen_hours.is_empty() {
             return;
         }
@@ -923,7 +919,31 @@ impl OperationTracker {
             w.outage = true;
         } else {
             w.count.hours += step_s / HOUR_S;
-            w.count.starts += f64::from(u8::from(moving && !self.moving_prev));
+        }
+    }
+
+    /// Counts a trip that started at `start` into its hour of the week, when the monitor
+    /// learns that hour: into the hour under way, or into the hour before when the trip
+    /// crossed into this one (that hour's hours were added when it ended). Not in an hour an
+    /// outage was under way in, whose hours were left out.
+    fn learn_start(&mut self, start: f64) {
+        if self.learnt.is_empty() || !start.is_finite() {
+            return;
+        }
+        let h = hour_bin(start);
+        match self.watching.as_mut() {
+            Some(w) if usize::from(w.bin) == h => {
+                if !w.outage {
+                    w.count.starts += 1.0;
+                }
+            }
+            _ => {
+                let hour_start = (start / HOUR_S).floor() * HOUR_S;
+                let outage_in_it = self.last_outage.is_some_and(|o| o.end >= hour_start);
+                if let Some(Some(c)) = self.learnt.get_mut(h).filter(|_| !outage_in_it) {
+                    c.starts += 1.0;
+                }
+            }
         }
     }
 
@@ -978,10 +998,7 @@ impl OperationTracker {
         let moving = x.speed.is_finite() && x.speed > thr;
         let at_rest = x.speed.is_finite() && !moving;
         if let Some(r) = r.filter(|_| x.speed.is_finite()) {
-            self.learn_hour(t, step_s, moving, r);
-        }
-        if x.speed.is_finite() {
-            self.moving_prev = moving;
+            self.learn_hour(t, step_s, r);
         }
         // A door that opens or a floor reading that changes is a car in use, whatever the
         // speed reads (a speed sensor stuck at zero on a travelling car is a sensor fault,
@@ -1153,10 +1170,11 @@ impl OperationTracker {
         });
     }
 
-    /// A trip the features stage reported: counted for the day, and checked for an end
-    /// between landings.
+    /// A trip the features stage reported: counted for the day and, in an hour the training
+    /// never saw, for its hour; and checked for an end between landings.
     pub fn trip(&mut self, t: &Trip, r: Option<&OperationReference>) {
         self.day_mut(t.end_time).trips += 1;
+        self.learn_start(t.start_time);
         self.between_since = f64::NAN;
         let Some(r) = r else { return };
         if let Some(off) = level_offset(&r.landings_m, t) {
@@ -2427,6 +2445,9 @@ mod tests {
                 0.05,
                 Some(&r),
             );
+            if start {
+                tr.trip(&hop(0, t), Some(&r));
+            }
             while let Some(e) = tr.take_event() {
                 if let OperationEvent::OutageStart(o) = e {
                     starts.push(o);
@@ -2466,6 +2487,32 @@ mod tests {
         assert_eq!(serde_json::to_string(&back).unwrap(), state);
     }
 
+    /// A trip is counted into the hour it started in, as the training counts it, also when
+    /// the features stage reports it after that hour has ended; and not into an hour an
+    /// outage was under way in.
+    #[test]
+    fn a_learnt_hour_counts_the_trips_started_in_it() {
+        let office = |t: f64| (7.0..19.0).contains(&((t / HOUR_S) % 24.0)).then_some(120);
+        let r = learnt(3, office).reference;
+        let thursday_10 = 3.0 * DAY_S + 10.0 * HOUR_S;
+        let mut tr = OperationTracker::new();
+        let feed = |tr: &mut OperationTracker, from: f64, to: f64| {
+            for i in from as u32..to as u32 {
+                tr.push(&sample(f64::from(i), 0.0, 0.0, 1.0), 1.0, 0.05, Some(&r));
+            }
+        };
+        feed(&mut tr, thursday_10, thursday_10 + 1800.0);
+        tr.trip(&hop(0, thursday_10 + 1000.0), Some(&r));
+        feed(&mut tr, thursday_10 + 1800.0, thursday_10 + HOUR_S + 5.0);
+        // Started at 10:59:55, reported at 11:00:05, when 10:00's hour was already added.
+        tr.trip(&hop(1, thursday_10 + HOUR_S - 5.0), Some(&r));
+        feed(&mut tr, thursday_10 + HOUR_S + 5.0, thursday_10 + 2.0 * HOUR_S + 1.0);
+        let ten = tr.learnt[hour_bin(thursday_10)].expect("unseen");
+        assert!((ten.hours - 1.0).abs() < 1e-9 && ten.starts == 2.0, "{ten:?}");
+        let eleven = tr.learnt[hour_bin(thursday_10 + HOUR_S)].expect("unseen");
+        assert!((eleven.hours - 1.0).abs() < 1e-9 && eleven.starts == 0.0, "{eleven:?}");
+    }
+
     /// What `days` of training from Monday 00:00 at step 1 s teach, with a trip started
     /// every `every(t)` s (None: no trip in that second's hour).
     fn learnt(days: u32, every: impl Fn(f64) -> Option<u32>) -> Learnt {
@@ -2482,21 +2529,26 @@ mod tests {
             let start = every(t).is_some_and(|e| i % e == 0);
             samples.push(sample(t, if start { 1.0 } else { 0.0 }, 0.0, 1.0));
             if start {
-                trips.push(Trip {
-                    index: trips.len() as u32,
-                    start_time: t,
-                    end_time: t + 1.0,
-                    direction: 1,
-                    from_floor: 1.0,
-                    to_floor: 2.0,
-                    load_ratio: 0.0,
-                    peak_speed: 1.0,
-                    distance_m: 3.0,
-                    samples: 1,
-                });
+                trips.push(hop(trips.len() as u32, t));
             }
         }
         (samples, trips)
+    }
+
+    /// Trip `index`: one moving second at `t`, a floor up.
+    fn hop(index: u32, t: f64) -> Trip {
+        Trip {
+            index,
+            start_time: t,
+            end_time: t,
+            direction: 1,
+            from_floor: 1.0,
+            to_floor: 2.0,
+            load_ratio: 0.0,
+            peak_speed: 1.0,
+            distance_m: 1.0,
+            samples: 1,
+        }
     }
 
     /// The outages `r` reports on a day from `day` (days from the training's Monday) with

@@ -59,7 +59,12 @@
 //! silence is never judged at a rate it is lowering itself, and an hour in which an outage
 //! was under way is left out. Λ_max stays the training's. An outage the monitor could not
 //! see in an unseen hour's first week teaches it that hour as quiet, until later weeks
-//! outweigh it.
+//! outweigh it. Nor is it reported; but a silence that Λ at the hours' pooled rates of the
+//! day would have called an outage is followed by the backlog an outage is (its door cycles
+//! not scored, its trips not machine evidence): on the field bench of `evaluate --seed 2`
+//! a 630 kg car trained Monday to Wednesday stood out of service 4 h on its first Thursday,
+//! door closed, and the calls that had waited raised a door advisory after it. It costs the
+//! evidence of three hours after a quiet spell of a weekend in the first week.
 //!
 //! Why an hour's rate is at most its hour of the day's over the training: one week shows each
 //! hour of the week once, and one hour's count of a Poisson stream of calls is noisy. A
@@ -787,6 +792,12 @@ pub struct OperationTracker {
     /// Λ since `rest_since`.
     #[serde(with = "exact")]
     expected: f64,
+    /// Λ since `rest_since` with the hours the training never saw and the monitor has not
+    /// yet learnt at their hour of the day's pooled rate (Λ itself takes their quietest
+    /// rate): a silence it would have called an outage was, perhaps, one, and the calls that
+    /// waited follow as after an outage (`out_of_use_end`). 0 while every hour has a rate.
+    #[serde(with = "exact", default)]
+    expected_pooled: f64,
     /// Seconds at rest since `rest_since`, per day, until an outage claims them.
     pending: Vec<(i64, f64)>,
     /// A trip that ended between landings: its end time (s).
@@ -796,11 +807,16 @@ pub struct OperationTracker {
     pub open: Option<Outage>,
     /// The last outage that ended.
     pub last_outage: Option<Outage>,
-    /// When a door held open for [`OUTAGE_MIN_S`] or more last closed (NaN: never): the car
-    /// stood out of use, an outage or not (one in an hour the training never saw goes
-    /// unjudged), and the calls that waited follow as after an outage.
-    #[serde(with = "exact", default = "crate::exact::nan")]
-    held_open_end: f64,
+    /// When the car last came back into use after standing out of it unjudged (NaN: never):
+    /// a door held open for [`OUTAGE_MIN_S`] or more closed, an outage or not, or a silence
+    /// ended that Λ at the pooled rates (`expected_pooled`) called an outage in hours the
+    /// monitor had not yet learnt. The calls that waited follow as after an outage.
+    #[serde(
+        with = "exact",
+        default = "crate::exact::nan",
+        alias = "held_open_end"
+    )]
+    out_of_use_end: f64,
     /// Outages concluded.
     pub outages: u64,
     /// The door check.
@@ -847,11 +863,12 @@ impl OperationTracker {
             floor_prev: f64::NAN,
             rest_since: f64::NAN,
             expected: 0.0,
+            expected_pooled: 0.0,
             pending: Vec::new(),
             between_since: f64::NAN,
             open: None,
             last_outage: None,
-            held_open_end: f64::NAN,
+            out_of_use_end: f64::NAN,
             outages: 0,
             door: DoorCheck::default(),
             recent: VecDeque::new(),
@@ -875,6 +892,18 @@ impl OperationTracker {
                 r.hour_of_day_rates.get(h % 24).copied().unwrap_or(0.0),
             ),
             _ => r.trips_per_hour.get(h).copied().unwrap_or(0.0),
+        }
+    }
+
+    /// The rate of hour of the week `h` for `expected_pooled`: its hour of the day's pooled
+    /// rate while it is an hour the training never saw and the monitor has not yet learnt,
+    /// else `rate`, the rate it is judged at.
+    fn pooled_rate(&self, h: usize, r: &OperationReference, rate: f64) -> f64 {
+        match self.learnt.get(h) {
+            Some(Some(c)) if c.hours < LEARNT_MIN_H => {
+                r.hour_of_day_rates.get(h % 24).copied().unwrap_or(rate)
+            }
+            _ => rate,
         }
     }
 
@@ -1009,7 +1038,7 @@ impl OperationTracker {
             self.floor_prev = x.floor;
         }
         if used && !moving && self.open.is_none() {
-            self.restart_silence(t);
+            self.end_silence(t, r);
         }
         if moving {
             self.moved_since_close = true;
@@ -1018,14 +1047,20 @@ impl OperationTracker {
                 o.end = t;
                 self.queue.push_back(OperationEvent::OutageEnd(o));
                 self.last_outage = Some(o);
+                self.restart_silence(t);
+            } else {
+                self.end_silence(t, r);
             }
-            self.restart_silence(t);
         } else if self.open.is_some() {
             self.day_mut(t).outage_s += step_s;
         } else if at_rest {
             if let Some(r) = r {
                 let h = self.hour_bin(t);
-                self.expected += self.rate(h, r) * step_s / HOUR_S;
+                let rate = self.rate(h, r);
+                self.expected += rate * step_s / HOUR_S;
+                if !self.learnt.is_empty() {
+                    self.expected_pooled += self.pooled_rate(h, r, rate) * step_s / HOUR_S;
+                }
             }
             let d = self.day_of(t);
             match self.pending.last_mut() {
@@ -1050,7 +1085,23 @@ impl OperationTracker {
     fn restart_silence(&mut self, t: f64) {
         self.rest_since = t;
         self.expected = 0.0;
+        self.expected_pooled = 0.0;
         self.pending.clear();
+    }
+
+    /// The car, in no outage, was in use at `t`: a silence that the pooled rates of the hours
+    /// not yet learnt would have called an outage ended (its calls follow as a backlog), and
+    /// the next starts.
+    fn end_silence(&mut self, t: f64, r: Option<&OperationReference>) {
+        let unjudged = r.is_some_and(|r| {
+            self.expected_pooled >= r.outage_expected_trips
+                && self.expected < r.outage_expected_trips
+                && t - self.rest_since >= OUTAGE_MIN_S
+        });
+        if unjudged {
+            self.out_of_use_end = t;
+        }
+        self.restart_silence(t);
     }
 
     /// Opens an outage when the silence is long and unlikely enough, or the car stands
@@ -1124,7 +1175,7 @@ impl OperationTracker {
                     exchange: (self.load_closed - low) + (x.load - low),
                 };
                 if c.duration_s >= OUTAGE_MIN_S {
-                    self.held_open_end = t;
+                    self.out_of_use_end = t;
                 }
                 let u = self.day_mut(t);
                 u.door_cycles += 1;
@@ -1197,7 +1248,7 @@ impl OperationTracker {
     fn back_in_use(&self) -> f64 {
         // `max` passes over the NaN of a door never held open.
         let outage = self.last_outage.map_or(f64::NEG_INFINITY, |o| o.end);
-        self.held_open_end.max(outage)
+        self.out_of_use_end.max(outage)
     }
 
     /// The next event, at most one per call (the monitor takes one per sample).
@@ -2511,6 +2562,36 @@ mod tests {
         assert!((ten.hours - 1.0).abs() < 1e-9 && ten.starts == 2.0, "{ten:?}");
         let eleven = tr.learnt[hour_bin(thursday_10 + HOUR_S)].expect("unseen");
         assert!((eleven.hours - 1.0).abs() < 1e-9 && eleven.starts == 0.0, "{eleven:?}");
+    }
+
+    /// A car trained Monday to Wednesday stands out of service for 4 h on the first Thursday,
+    /// an hour its Λ does not judge yet: no outage is reported, but the calls that waited are
+    /// a backlog, as after an outage; a 20-minute pause the same morning is not.
+    #[test]
+    fn an_unjudged_silence_as_long_as_an_outage_is_followed_by_its_backlog() {
+        let office = |t: f64| (7.0..19.0).contains(&((t / HOUR_S) % 24.0)).then_some(120);
+        let r = learnt(3, office).reference;
+        let at = |h: f64| 3.0 * DAY_S + h * HOUR_S;
+        // Λ_max is 15 trips, half an hour at Thursday 10:00's pooled 30 an hour.
+        assert!((r.outage_expected_trips - 15.0).abs() < 1e-9, "{r:?}");
+        let mut tr = OperationTracker::new();
+        let mut backlog = Vec::new();
+        for i in at(0.0) as u32..at(24.0) as u32 {
+            let t = f64::from(i);
+            let h = (t / HOUR_S) % 24.0;
+            let silent = (8.0..8.34).contains(&h) || (10.0..14.0).contains(&h);
+            let start = (7.0..19.0).contains(&h) && !silent && i % 120 == 0;
+            tr.push(&sample(t, f64::from(u8::from(start)), 0.0, 1.0), 1.0, 0.05, Some(&r));
+            assert!(tr.take_event().is_none(), "nothing is reported at {h} h");
+            if tr.serving_backlog(t) {
+                backlog.push(t);
+            }
+        }
+        assert!(!backlog.is_empty(), "the 4 h silence is followed by its backlog");
+        let (first, last) = (backlog[0], backlog[backlog.len() - 1]);
+        assert_eq!(backlog.len() as f64, last - first + 1.0, "one span");
+        assert!((first - at(14.0)).abs() <= 120.0, "{first}");
+        assert!((last - first - (OUTAGE_BACKLOG_S - 1.0)).abs() < 1e-9, "{last}");
     }
 
     /// What `days` of training from Monday 00:00 at step 1 s teach, with a trip started

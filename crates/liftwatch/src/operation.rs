@@ -811,11 +811,7 @@ pub struct OperationTracker {
     /// a door held open for [`OUTAGE_MIN_S`] or more closed, an outage or not, or a silence
     /// ended that Λ at the pooled rates (`expected_pooled`) called an outage in hours the
     /// monitor had not yet learnt. The calls that waited follow as after an outage.
-    #[serde(
-        with = "exact",
-        default = "crate::exact::nan",
-        alias = "held_open_end"
-    )]
+    #[serde(with = "exact", default = "crate::exact::nan", alias = "held_open_end")]
     out_of_use_end: f64,
     /// Outages concluded.
     pub outages: u64,
@@ -2557,11 +2553,21 @@ mod tests {
         feed(&mut tr, thursday_10 + 1800.0, thursday_10 + HOUR_S + 5.0);
         // Started at 10:59:55, reported at 11:00:05, when 10:00's hour was already added.
         tr.trip(&hop(1, thursday_10 + HOUR_S - 5.0), Some(&r));
-        feed(&mut tr, thursday_10 + HOUR_S + 5.0, thursday_10 + 2.0 * HOUR_S + 1.0);
+        feed(
+            &mut tr,
+            thursday_10 + HOUR_S + 5.0,
+            thursday_10 + 2.0 * HOUR_S + 1.0,
+        );
         let ten = tr.learnt[hour_bin(thursday_10)].expect("unseen");
-        assert!((ten.hours - 1.0).abs() < 1e-9 && ten.starts == 2.0, "{ten:?}");
+        assert!(
+            (ten.hours - 1.0).abs() < 1e-9 && ten.starts == 2.0,
+            "{ten:?}"
+        );
         let eleven = tr.learnt[hour_bin(thursday_10 + HOUR_S)].expect("unseen");
-        assert!((eleven.hours - 1.0).abs() < 1e-9 && eleven.starts == 0.0, "{eleven:?}");
+        assert!(
+            (eleven.hours - 1.0).abs() < 1e-9 && eleven.starts == 0.0,
+            "{eleven:?}"
+        );
     }
 
     /// A car trained Monday to Wednesday stands out of service for 4 h on the first Thursday,
@@ -2581,17 +2587,28 @@ mod tests {
             let h = (t / HOUR_S) % 24.0;
             let silent = (8.0..8.34).contains(&h) || (10.0..14.0).contains(&h);
             let start = (7.0..19.0).contains(&h) && !silent && i % 120 == 0;
-            tr.push(&sample(t, f64::from(u8::from(start)), 0.0, 1.0), 1.0, 0.05, Some(&r));
+            tr.push(
+                &sample(t, f64::from(u8::from(start)), 0.0, 1.0),
+                1.0,
+                0.05,
+                Some(&r),
+            );
             assert!(tr.take_event().is_none(), "nothing is reported at {h} h");
             if tr.serving_backlog(t) {
                 backlog.push(t);
             }
         }
-        assert!(!backlog.is_empty(), "the 4 h silence is followed by its backlog");
+        assert!(
+            !backlog.is_empty(),
+            "the 4 h silence is followed by its backlog"
+        );
         let (first, last) = (backlog[0], backlog[backlog.len() - 1]);
         assert_eq!(backlog.len() as f64, last - first + 1.0, "one span");
         assert!((first - at(14.0)).abs() <= 120.0, "{first}");
-        assert!((last - first - (OUTAGE_BACKLOG_S - 1.0)).abs() < 1e-9, "{last}");
+        assert!(
+            (last - first - (OUTAGE_BACKLOG_S - 1.0)).abs() < 1e-9,
+            "{last}"
+        );
     }
 
     /// What `days` of training from Monday 00:00 at step 1 s teach, with a trip started

@@ -18,8 +18,8 @@ use crate::calibrate::{
 };
 use crate::elevator::Elevator;
 use crate::error::Result;
-use crate::features::{FeatureConfig, Features};
-use crate::model::train::{self, TrainPoint};
+use crate::features::{FeatureConfig, Trip};
+use crate::model::train::{self, TrainPoint, TrainingRows};
 use crate::model::{FitSummary, HybridModel, PhysParams, TrainConfig};
 use crate::operation::{OperationReference, Silence};
 use crate::risk::{evidence_predictions, trip_evidence_from, RiskConfig, TripEvidence, N_MODES};
@@ -62,8 +62,9 @@ pub struct FittedModel {
 pub struct FitOutcome {
     /// The fitted, calibrated model.
     pub model: FittedModel,
-    /// Features of the training data (with the fitted load-cell gain).
-    pub features: Features,
+    /// The complete trips of the training data (with the fitted load-cell gain); its rows are
+    /// [`crate::features::extract`]'s with `model.features`.
+    pub trips: Vec<Trip>,
     /// Per-trip evidence of the training data, on which the risk was calibrated.
     pub healthy_trips: Vec<TripEvidence>,
 }
@@ -112,10 +113,18 @@ pub fn fit_with(
     calibration.validate()?;
     let feature_cfg =
         crate::features::fit_load_cell(series, &FeatureConfig::for_elevator(elevator))?;
-    let features = crate::features::extract(series, &feature_cfg);
+    // The rows are kept as the passes below read them (TrainingRows), never all of them whole:
+    // a week of them took twice the memory of the series they came from.
+    let mut trips = Vec::new();
+    let rows = TrainingRows::from_rows(crate::features::rows(series, &feature_cfg).map(
+        |(row, trip)| {
+            trips.extend(trip);
+            row
+        },
+    ));
     let prior = PhysParams::prior_centre(elevator);
-    let observed = train::observations_weighted(
-        &features.rows,
+    let observed = train::observations_of(
+        &rows,
         elevator.floors,
         cfg.standstill_share,
         prior.ke,
@@ -130,13 +139,15 @@ pub fn fit_with(
             observed.rest_voltage_v
         ));
     }
+    // What the observations hold (a copy of the moving rows' inputs) goes before the passes.
+    drop(observed);
     let hybrid = HybridModel {
         elevator: elevator.clone(),
         parameters: trained.parameters,
         net: trained.net,
         scales: trained.scales,
     };
-    let baseline = BaselineLimits::calibrate(&hybrid, &features.rows, BASELINE_MARGIN)?;
+    let baseline = BaselineLimits::calibrate(&hybrid, &rows.moving, BASELINE_MARGIN)?;
     if baseline.measured_percentile < 0.999 {
         summary.warnings.push(format!(
             "the threshold baseline's 99.9th percentiles are extrapolated from the {:.1}th: the training has too few moving samples to measure them",
@@ -144,14 +155,16 @@ pub fn fit_with(
         ));
     }
     // Each time constant the winding's search tries is a pass over the rows; the network's
-    // predictions, the same in every pass, are made once.
-    let predictions = evidence_predictions(&hybrid, &features.rows);
-    let (tau_s, healthy_trips) = winding_time_constant(&mut |tau| {
-        trip_evidence_from(&hybrid, &features.rows, tau, &predictions)
-    });
+    // predictions, the same in every pass, are made once. Rows at rest hold no evidence, no
+    // baseline signal and no signature.
+    let predictions = evidence_predictions(&hybrid, &rows.moving);
+    let (tau_s, healthy_trips) =
+        winding_time_constant(&mut |tau| trip_evidence_from(&hybrid, &rows, tau, &predictions));
+    drop(predictions);
     let fit_error = trained.covariance.as_ref().map_or([0.0; N_MODES], |cov| {
-        fit_error_along_signatures(&hybrid, &features.rows, cov)
+        fit_error_along_signatures(&hybrid, &rows.moving, cov)
     });
+    drop(rows);
     let mut calibrated = calibrate(&healthy_trips, tau_s, &fit_error, calibration)?;
     calibrated
         .sensor
@@ -168,7 +181,7 @@ pub fn fit_with(
         .extend(short_training_notes(&calibrated.report, &calibrated.risk));
     let learnt = OperationReference::learn(
         &series.samples,
-        &features.trips,
+        &trips,
         series.step_s,
         feature_cfg.moving_threshold_mps,
         elevator.floors as usize,
@@ -192,7 +205,7 @@ pub fn fit_with(
     };
     Ok(FitOutcome {
         model,
-        features,
+        trips,
         healthy_trips,
     })
 }

@@ -176,10 +176,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
 
     eprintln!();
-    eprintln!(
-        "{}",
-        super::fit::summary(m, outcome.features.trips.len(), fitted)
-    );
+    eprintln!("{}", super::fit::summary(m, outcome.trips.len(), fitted));
     eprintln!();
     eprint!(
         "{}",

@@ -115,11 +115,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let seconds = started.elapsed().as_secs_f64();
     file::save(&args.out, &outcome.model)?;
     let out = named(&args.out, true);
-    ui.say(summary(
-        &outcome.model,
-        outcome.features.trips.len(),
-        seconds,
-    ));
+    ui.say(summary(&outcome.model, outcome.trips.len(), seconds));
     ui.say(format_args!("wrote {out}"));
     ui.json(&json_summary(&outcome, &args, &report, seconds))
 }
@@ -182,7 +178,7 @@ fn json_summary(
         "moving_samples": f.moving_samples,
         "standstill_samples": f.standstill_samples,
         "speed_noise_mps": f.speed_noise_mps,
-        "trips": outcome.features.trips.len(),
+        "trips": outcome.trips.len(),
         "rms_r_voltage_v": finite(f.rms_u_v),
         "rms_r_force_n": finite(f.rms_f_n),
         "iterations": f.iterations,

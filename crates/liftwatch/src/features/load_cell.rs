@@ -11,7 +11,7 @@
 //! and braking phases of complete trips; [`super::FeatureTracker`] then uses them in a_L.
 
 use super::accel::A_L_MAX_MPS2;
-use super::{extract, FeatureConfig, FeatureRow, MAX_STEP_S};
+use super::{rows, FeatureConfig, FeatureRow, MAX_STEP_S};
 use crate::elevator::G;
 use crate::error::{Error, Result};
 use crate::sample::AlignedSeries;
@@ -97,46 +97,46 @@ pub fn fit_load_cell(series: &AlignedSeries, cfg: &FeatureConfig) -> Result<Feat
     Ok(law)
 }
 
-/// One least-squares round of [`fit_load_cell`] on rows extracted with the law of `cfg`.
+/// One least-squares round of [`fit_load_cell`] on rows extracted with the law of `cfg`, in
+/// one pass that holds the rows of one trip at a time.
 fn fit_round(series: &AlignedSeries, cfg: &FeatureConfig) -> Result<FeatureConfig> {
-    let f = extract(series, cfg);
-    let rows = &f.rows;
-    let complete: std::collections::HashSet<u32> = f.trips.iter().map(|t| t.index).collect();
-    let moving_s: f64 = rows
-        .windows(2)
-        .filter(|w| w[1].s != 0 && (0.0..=MAX_STEP_S).contains(&(w[1].time - w[0].time)))
-        .map(|w| w[1].time - w[0].time)
-        // From +0.0: std's float `sum` starts at -0.0, which an empty log printed as "-0 s".
-        .fold(0.0, |a, b| a + b);
     let mut normal = Normal::holding(cfg.load_cell_load_gain);
     let mut used_trips = 0usize;
-    let mut i = 1;
-    while i < rows.len() {
-        let Some(k) = rows[i]
-            .trip
-            .filter(|k| complete.contains(k) && rows[i - 1].trip != Some(*k))
-        else {
-            i += 1;
-            continue;
-        };
-        // A complete trip ends on a row followed by a standstill row.
-        let start = i - 1;
-        let mut end = i;
-        while end + 1 < rows.len() && rows[end + 1].trip == Some(k) {
-            end += 1;
+    // Summed from +0.0: std's float `sum` starts at -0.0, which an empty log printed as "-0 s".
+    let mut moving_s = 0.0;
+    let mut last_ended = None;
+    // The trip being gathered: its index, and its rows from the standstill before it.
+    let mut open: Option<(u32, TripRows<'_>)> = None;
+    let mut prev: Option<FeatureRow> = None;
+    for (i, (row, ended)) in rows(series, cfg).enumerate() {
+        if let Some(p) = &prev {
+            let dt = row.time - p.time;
+            if row.s != 0 && (0.0..=MAX_STEP_S).contains(&dt) {
+                moving_s += dt;
+            }
         }
-        i = end + 1;
-        if end + 1 >= rows.len() {
-            break;
+        if let Some((k, mut trip)) = open.take() {
+            trip.rows.push(row);
+            if row.trip == Some(k) {
+                open = Some((k, trip));
+            } else if last_ended == Some(k) {
+                // A complete trip ends on a row followed by a standstill row: this one.
+                used_trips += usize::from(trip.add_segments(&mut normal));
+            }
         }
-        let trip = TripRows {
-            series,
-            rows,
-            start,
-            end,
-            cfg,
-        };
-        used_trips += usize::from(trip.add_segments(&mut normal));
+        if let (Some(k), Some(p)) = (row.trip, &prev) {
+            if open.is_none() && p.trip != Some(k) {
+                let trip = TripRows {
+                    series,
+                    rows: vec![*p, row],
+                    first: i - 1,
+                    cfg,
+                };
+                open = Some((k, trip));
+            }
+        }
+        last_ended = ended.map(|t| t.index).or(last_ended);
+        prev = Some(row);
     }
     if used_trips < FIT_MIN_TRIPS || moving_s < FIT_MIN_MOVING_S {
         return Err(Error::TooLittleMotion {
@@ -230,13 +230,13 @@ impl Normal {
     }
 }
 
-/// One complete trip of the history: its rows `start + 1 ..= end` move, `start` and `end + 1`
-/// are the standstills around it.
+/// One complete trip of the history: its rows, the first and the last of them the standstills
+/// around it and the others moving.
 struct TripRows<'a> {
     series: &'a AlignedSeries,
-    rows: &'a [FeatureRow],
-    start: usize,
-    end: usize,
+    rows: Vec<FeatureRow>,
+    /// The index of the first row in the series.
+    first: usize,
     /// The settings the rows were extracted with (their load-cell law).
     cfg: &'a FeatureConfig,
 }
@@ -249,7 +249,8 @@ impl TripRows<'_> {
 
     /// Adds one equation per segment between anchors to `normal`; true when any was added.
     fn add_segments(&self, normal: &mut Normal) -> bool {
-        let (rows, start, end) = (self.rows, self.start, self.end);
+        let rows = &self.rows;
+        let (start, end) = (0, rows.len() - 2);
         let lambda = rows[start + 1].lambda;
         // The standstill before, the cruising samples, the standstill after.
         let anchors: Vec<usize> = std::iter::once(start)
@@ -266,10 +267,10 @@ impl TripRows<'_> {
         let l_ref = (start + 1..=end)
             .find(|&j| rows[j].a_l.is_finite())
             .map_or(f64::NAN, |j| {
-                self.series.samples[j].load - 100.0 * self.z_moving(&rows[j]) / G
+                self.series.samples[self.first + j].load - 100.0 * self.z_moving(&rows[j]) / G
             });
         let z_rest = |j: usize| {
-            let x = &self.series.samples[j];
+            let x = &self.series.samples[self.first + j];
             let z = G * (x.load - l_ref) / 100.0;
             if x.door <= 0.5 && z.is_finite() && z.abs() <= A_L_MAX_MPS2 {
                 z

@@ -26,8 +26,9 @@
 //! falls in between, the last standstill reading (door still reported open) stands in.
 //!
 //! The extraction is a streaming step, [`FeatureTracker::push`], that emits the row of the sample
-//! [`LAG`] steps back once its successor is known; [`extract`] is a loop over it, so a batch run
-//! and a monitor that saves the tracker between two files give identical rows.
+//! [`LAG`] steps back once its successor is known; [`rows`] is a loop over it and [`extract`]
+//! collects that, so a batch run, the fit (which keeps only some of the rows) and a monitor
+//! that saves the tracker between two files give identical rows.
 //!
 //! Deviation from the paper: the paper weighs the load path more while cruising and the speed
 //! path more while starting and braking. At 1 Hz the central difference is the mean acceleration
@@ -67,7 +68,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::elevator::Elevator;
 use crate::error::{Error, Result};
-use crate::sample::AlignedSeries;
+use crate::sample::{AlignedSeries, Sample};
 
 pub use load_cell::fit_load_cell;
 pub use tracker::FeatureTracker;
@@ -246,22 +247,62 @@ pub struct Features {
     pub trips: Vec<Trip>,
 }
 
-/// Features of a whole series: a loop over [`FeatureTracker`], nothing else.
+/// Features of a whole series: [`rows`] collected.
 pub fn extract(series: &AlignedSeries, cfg: &FeatureConfig) -> Features {
-    let mut tracker = FeatureTracker::new(cfg.clone());
     let mut out = Features {
         rows: Vec::with_capacity(series.len()),
         trips: Vec::new(),
     };
-    for s in &series.samples {
-        if let Some(row) = tracker.push(s) {
-            out.rows.push(row);
-        }
-        out.trips.extend(tracker.take_trip());
+    for (row, trip) in rows(series, cfg) {
+        out.rows.push(row);
+        out.trips.extend(trip);
     }
-    out.rows.extend(tracker.finish());
-    out.trips.extend(tracker.take_trip());
     out
+}
+
+/// The features of a whole series one row at a time, each with the trip it ended (if any):
+/// a loop over [`FeatureTracker`], nothing else. For callers that keep less than every row
+/// (the fit keeps the moving ones, [`crate::model::train::TrainingRows`]).
+pub fn rows<'a>(series: &'a AlignedSeries, cfg: &FeatureConfig) -> Rows<'a> {
+    Rows {
+        samples: series.samples.iter(),
+        tracker: FeatureTracker::new(cfg.clone()),
+        held: None,
+    }
+}
+
+/// The iterator of [`rows`].
+pub struct Rows<'a> {
+    /// The samples not yet pushed.
+    samples: std::slice::Iter<'a, Sample>,
+    /// The streaming step the samples go through.
+    tracker: FeatureTracker,
+    /// The rows the tracker held at the end of the data, once it was told so.
+    held: Option<std::vec::IntoIter<FeatureRow>>,
+}
+
+impl Iterator for Rows<'_> {
+    type Item = (FeatureRow, Option<Trip>);
+
+    fn next(&mut self) -> Option<Self::Item> {
+        for s in self.samples.by_ref() {
+            if let Some(row) = self.tracker.push(s) {
+                return Some((row, self.tracker.take_trip()));
+            }
+        }
+        let held = match &mut self.held {
+            Some(held) => held,
+            None => self.held.insert(self.tracker.finish().into_iter()),
+        };
+        let row = held.next()?;
+        Some((row, self.tracker.take_trip()))
+    }
+
+    /// At most a row per sample: the samples to come, and the one the tracker holds.
+    fn size_hint(&self) -> (usize, Option<usize>) {
+        let held = self.held.as_ref().map_or(1, ExactSizeIterator::len);
+        (0, Some(self.samples.len() + held))
+    }
 }
 
 #[cfg(test)]

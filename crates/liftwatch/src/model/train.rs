@@ -58,11 +58,13 @@ use crate::model::physics::{PhysParams, N_PHYS};
 use crate::model::ResidualScales;
 
 mod report;
+mod rows;
 #[cfg(test)]
 mod tests;
 
 pub use crate::stats::robust_sigma;
 pub use report::{FitSummary, ParamReport, Stage2Stop};
+pub use rows::{TrainingRow, TrainingRows};
 
 /// Rounds of stage 1: Gauss-Newton at a fixed σ_U, then σ_U re-estimated from its residuals.
 const SIGMA_ROUNDS: usize = 3;
@@ -289,48 +291,58 @@ pub fn observations_weighted(
     ke_v_s_per_m: f64,
     sigma_v: f64,
 ) -> Result<Observations> {
-    let ok = |r: &FeatureRow| {
-        r.v.is_finite() && r.lambda.is_finite() && r.a.is_finite() && r.voltage.is_finite()
-    };
-    let mut moving: Vec<Obs> = Vec::new();
+    observations_of(
+        &TrainingRows::from_rows(rows.iter().copied()),
+        floors,
+        standstill_share,
+        ke_v_s_per_m,
+        sigma_v,
+    )
+}
+
+/// Whether a row can be an observation: v, λ, a and U all finite.
+fn observable(r: &FeatureRow) -> bool {
+    r.v.is_finite() && r.lambda.is_finite() && r.a.is_finite() && r.voltage.is_finite()
+}
+
+/// [`observations_weighted`] of the rows the fit keeps ([`TrainingRows`]), whose rows at
+/// rest are already summed per load bin.
+///
+/// # Errors
+/// As [`observations`].
+pub fn observations_of(
+    rows: &TrainingRows,
+    floors: u32,
+    standstill_share: f64,
+    ke_v_s_per_m: f64,
+    sigma_v: f64,
+) -> Result<Observations> {
+    let mut moving: Vec<Obs> = Vec::with_capacity(rows.moving.len() + rows.bins.len());
     let mut trips = std::collections::BTreeSet::new();
     let (mut up, mut down) = (0usize, 0usize);
-    let mut bins: std::collections::BTreeMap<i64, (f64, f64, f64)> =
-        std::collections::BTreeMap::new();
-    let mut rest_voltages = Vec::new();
-    for r in rows.iter().filter(|r| ok(r)) {
-        if r.s != 0 {
-            let w = if ke_v_s_per_m == 0.0 {
-                1.0
-            } else {
-                interpolation_weight_of(r, ke_v_s_per_m, sigma_v)
-            };
-            let q = PhysParams::relative_height(r.floor, floors);
-            moving.push(Obs {
-                s: r.s,
-                v: r.v,
-                lambda: r.lambda,
-                a: r.a,
-                q,
-                u: r.voltage,
-                w,
-            });
-            if let Some(t) = r.trip {
-                trips.insert(t);
-            }
-            if r.s > 0 {
-                up += 1;
-            } else {
-                down += 1;
-            }
+    for r in rows.moving.iter().filter(|r| observable(r)) {
+        let w = if ke_v_s_per_m == 0.0 {
+            1.0
         } else {
-            let b = bins
-                .entry((r.lambda * LOAD_BINS).round() as i64)
-                .or_insert((0.0, 0.0, 0.0));
-            b.0 += 1.0;
-            b.1 += r.lambda;
-            b.2 += r.voltage;
-            rest_voltages.push(r.voltage);
+            interpolation_weight_of(r, ke_v_s_per_m, sigma_v)
+        };
+        let q = PhysParams::relative_height(r.floor, floors);
+        moving.push(Obs {
+            s: r.s,
+            v: r.v,
+            lambda: r.lambda,
+            a: r.a,
+            q,
+            u: r.voltage,
+            w,
+        });
+        if let Some(t) = r.trip {
+            trips.insert(t);
+        }
+        if r.s > 0 {
+            up += 1;
+        } else {
+            down += 1;
         }
     }
     let moving_s = moving.len() as f64;
@@ -349,10 +361,10 @@ pub fn observations_weighted(
         )));
     }
     let n_moving = moving.len();
-    let speed_noise_mps = speed_noise_of(rows);
-    let n_rest = rest_voltages.len();
-    let rest_voltage_v = crate::stats::median(&rest_voltages);
-    let moving_voltage_v = crate::stats::median(&moving.iter().map(|o| o.u).collect::<Vec<_>>());
+    let speed_noise_mps = speed_noise_in(rows.moving_stretches());
+    let (n_rest, rest_voltage_v) = (rows.n_rest, rows.rest_voltage_v);
+    let moving_voltage_v =
+        crate::stats::median_in_place(&mut moving.iter().map(|o| o.u).collect::<Vec<_>>());
     let drive_off_at_rest = rest_voltage_v < DRIVE_OFF_SHARE * moving_voltage_v;
     if drive_off_at_rest {
         return Ok(Observations {
@@ -370,7 +382,7 @@ pub fn observations_weighted(
         )));
     }
     let rest_w = standstill_share * moving_w / n_rest as f64;
-    for (n, lam, u) in bins.into_values() {
+    for &(n, lam, u) in rows.bins.values() {
         moving.push(Obs {
             s: 0,
             v: 0.0,
@@ -410,10 +422,16 @@ const MAX_TRIPLE_SPAN_S: f64 = 2.5;
 /// cannot tell from noise is a real ripple of the cruising speed, which the back-EMF
 /// follows; a car that has one gets σ_v too large, and the fit's Ke too large with it.
 pub fn speed_noise_of(rows: &[FeatureRow]) -> f64 {
+    speed_noise_in(rows.split(|r| r.s == 0))
+}
+
+/// [`speed_noise_of`] rows given as the stretches of moving rows that no row at rest
+/// interrupts, in order: a triple of cruising rows lies in one.
+fn speed_noise_in<'a>(stretches: impl Iterator<Item = &'a [FeatureRow]>) -> f64 {
     use crate::features::Phase;
     let cruising = |r: &FeatureRow| r.phase == Phase::Cruising && r.s != 0 && r.v.is_finite();
-    let d: Vec<f64> = rows
-        .windows(3)
+    let d: Vec<f64> = stretches
+        .flat_map(|rows| rows.windows(3))
         .filter(|w| w.iter().all(cruising) && w[2].time - w[0].time < MAX_TRIPLE_SPAN_S)
         .map(|w| w[2].v - w[0].v)
         .collect();
@@ -650,7 +668,7 @@ fn parts_of(
     elevator: &Elevator,
     w_p: f64,
 ) -> Option<Vec<[f64; N_PHYS]>> {
-    let moving: Vec<Obs> = data.iter().filter(|o| o.s != 0).copied().collect();
+    let moving = || data.iter().filter(|o| o.s != 0);
     let share = 1.0 / STABILITY_PARTS as f64;
     let rest: Vec<Obs> = data
         .iter()
@@ -660,10 +678,11 @@ fn parts_of(
             ..*o
         })
         .collect();
-    let n = moving.len();
+    let n = moving().count();
     (0..STABILITY_PARTS)
         .map(|k| {
-            let mut part = moving[k * n / STABILITY_PARTS..(k + 1) * n / STABILITY_PARTS].to_vec();
+            let (from, to) = (k * n / STABILITY_PARTS, (k + 1) * n / STABILITY_PARTS);
+            let mut part: Vec<Obs> = moving().skip(from).take(to - from).copied().collect();
             part.extend_from_slice(&rest);
             let fit = fit_physics(&part, prior, map, elevator, w_p).ok()?;
             Some(map.theta(&fit.z).to_array())

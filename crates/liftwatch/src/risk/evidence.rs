@@ -55,7 +55,9 @@ use super::{RiskConfig, BRAKE, FRICTION, MOTOR, N_MODES};
 use crate::elevator::G;
 use crate::exact;
 use crate::features::{FeatureRow, Phase};
-use crate::model::train::{interpolation_weight_of, INTERPOLATION_NOISE_SHARE};
+use crate::model::train::{
+    interpolation_weight_of, TrainingRow, TrainingRows, INTERPOLATION_NOISE_SHARE,
+};
 use crate::model::{HybridModel, PhysParams, Prediction};
 use crate::residual::{PredictionCache, Residuals};
 
@@ -431,14 +433,21 @@ pub enum HeatInput {
 }
 
 impl HeatInput {
+    /// The input of a row that does not move: a car at rest when its velocity is `known`
+    /// (finite), else one whose motion is unknown.
+    pub fn still(known: bool) -> HeatInput {
+        if known {
+            HeatInput::Rest
+        } else {
+            HeatInput::Unknown
+        }
+    }
+
     /// The input of feature row `x` with its prediction (if any); the reference force
     /// `f_ref` ([`heating_reference`]).
     pub fn of_row(f_ref: f64, x: &FeatureRow, p: Option<&Prediction>) -> HeatInput {
-        if !x.v.is_finite() {
-            return HeatInput::Unknown;
-        }
-        if x.s == 0 {
-            return HeatInput::Rest;
+        if x.s == 0 || !x.v.is_finite() {
+            return HeatInput::still(x.v.is_finite());
         }
         match p {
             Some(p) if p.f_pred.is_finite() => HeatInput::Moving((p.f_pred / f_ref).powi(2)),
@@ -674,28 +683,37 @@ impl TripAccumulator {
 
 /// The healthy trips of a training set, for [`crate::calibrate::calibrate`]: residuals of `rows`
 /// with `model`, summed per trip (trips as marked by [`FeatureRow::trip`]), the winding's lag
-/// at `tau_s`. Plausibility of the raw sensors is not checked here: training data are healthy
-/// by assumption.
+/// at `tau_s`; a row at rest belongs to no trip, as [`crate::features::FeatureTracker`] makes
+/// them. Plausibility of the raw sensors is not checked here: training data are healthy by
+/// assumption.
 pub fn trip_evidence(model: &HybridModel, rows: &[FeatureRow], tau_s: f64) -> Vec<TripEvidence> {
-    trip_evidence_from(model, rows, tau_s, &[])
+    trip_evidence_from(
+        model,
+        &TrainingRows::from_rows(rows.iter().copied()),
+        tau_s,
+        &[],
+    )
 }
 
 /// The model's predictions of the samples [`trip_evidence`] sums (moving, with a voltage
-/// residual), in order: what the passes of the winding's search over its time constants
-/// share, made once (a network pass per moving sample, each the same whatever τ is).
-pub(crate) fn evidence_predictions(model: &HybridModel, rows: &[FeatureRow]) -> Vec<Prediction> {
+/// residual) among `moving`, the moving rows, in order: what the passes of the winding's
+/// search over its time constants share, made once (a network pass per moving sample, each
+/// the same whatever τ is).
+pub(crate) fn evidence_predictions(model: &HybridModel, moving: &[FeatureRow]) -> Vec<Prediction> {
     let mut cache = PredictionCache::default();
-    rows.iter()
+    moving
+        .iter()
         .filter(|x| counts_as_evidence(x))
         .map(|x| cache.predict(model, x))
         .collect()
 }
 
-/// [`trip_evidence`] with the predictions of its samples given in order
-/// ([`evidence_predictions`]); samples past their end are predicted here.
+/// [`trip_evidence`] of the rows the fit keeps ([`TrainingRows`]) with the predictions of its
+/// samples given in order ([`evidence_predictions`]); samples past their end are predicted
+/// here.
 pub(crate) fn trip_evidence_from(
     model: &HybridModel,
-    rows: &[FeatureRow],
+    rows: &TrainingRows,
     tau_s: f64,
     predictions: &[Prediction],
 ) -> Vec<TripEvidence> {
@@ -707,7 +725,19 @@ pub(crate) fn trip_evidence_from(
     let thermal = (heating_reference(model), tau_s);
     let mut heating = Heating::default();
     let mut open: Option<u32> = None;
-    for x in rows {
+    for row in rows.iter() {
+        let x = match row {
+            TrainingRow::Moving(x) => x,
+            TrainingRow::Still { time, known } => {
+                // A row at rest is in no trip.
+                if open.is_some() {
+                    out.extend(acc.finish(true));
+                    open = None;
+                }
+                heating.step(tau_s, time, HeatInput::still(known));
+                continue;
+            }
+        };
         if x.trip != open {
             out.extend(acc.finish(true));
             open = x.trip;

@@ -877,29 +877,21 @@ impl OperationTracker {
         }
     }
 
-    /// The trip rate the silence of hour of the week `h` is judged at: the reference's, or
-    /// for an hour the training never saw and the monitor since watched for [`LEARNT_MIN_H`],
-    /// the rate it counted there, at most its hour of the day's over the training.
-    fn rate(&self, h: usize, r: &OperationReference) -> f64 {
+    /// The trip rates of hour of the week `h`: the one its silence is judged at (Λ), and the
+    /// one of `expected_pooled`. Λ's is the reference's or, for an hour the training never saw
+    /// and the monitor since watched for [`LEARNT_MIN_H`], the rate it counted there, at most
+    /// its hour of the day's over the training. The pooled one is that hour of the day's
+    /// while the hour is unseen and not yet learnt, else Λ's.
+    fn rates(&self, h: usize, r: &OperationReference) -> (f64, f64) {
+        let of_day = r.hour_of_day_rates.get(h % 24).copied();
+        let seen = r.trips_per_hour.get(h).copied().unwrap_or(0.0);
         match self.learnt.get(h) {
-            Some(Some(c)) if c.hours >= LEARNT_MIN_H => own_rate(
-                c.starts,
-                c.hours,
-                r.hour_of_day_rates.get(h % 24).copied().unwrap_or(0.0),
-            ),
-            _ => r.trips_per_hour.get(h).copied().unwrap_or(0.0),
-        }
-    }
-
-    /// The rate of hour of the week `h` for `expected_pooled`: its hour of the day's pooled
-    /// rate while it is an hour the training never saw and the monitor has not yet learnt,
-    /// else `rate`, the rate it is judged at.
-    fn pooled_rate(&self, h: usize, r: &OperationReference, rate: f64) -> f64 {
-        match self.learnt.get(h) {
-            Some(Some(c)) if c.hours < LEARNT_MIN_H => {
-                r.hour_of_day_rates.get(h % 24).copied().unwrap_or(rate)
+            Some(Some(c)) if c.hours >= LEARNT_MIN_H => {
+                let own = own_rate(c.starts, c.hours, of_day.unwrap_or(0.0));
+                (own, own)
             }
-            _ => rate,
+            Some(Some(c)) if c.hours < LEARNT_MIN_H => (seen, of_day.unwrap_or(seen)),
+            _ => (seen, seen),
         }
     }
 
@@ -1052,10 +1044,10 @@ impl OperationTracker {
         } else if at_rest {
             if let Some(r) = r {
                 let h = self.hour_bin(t);
-                let rate = self.rate(h, r);
+                let (rate, pooled) = self.rates(h, r);
                 self.expected += rate * step_s / HOUR_S;
                 if !self.learnt.is_empty() {
-                    self.expected_pooled += self.pooled_rate(h, r, rate) * step_s / HOUR_S;
+                    self.expected_pooled += pooled * step_s / HOUR_S;
                 }
             }
             let d = self.day_of(t);

@@ -726,22 +726,22 @@ pub(crate) fn trip_evidence_from(
     let mut heating = Heating::default();
     let mut open: Option<u32> = None;
     for row in rows.iter() {
+        // A row at rest is in no trip.
+        let trip = match row {
+            TrainingRow::Moving(x) => x.trip,
+            TrainingRow::Still { .. } => None,
+        };
+        if trip != open {
+            out.extend(acc.finish(true));
+            open = trip;
+        }
         let x = match row {
             TrainingRow::Moving(x) => x,
             TrainingRow::Still { time, known } => {
-                // A row at rest is in no trip.
-                if open.is_some() {
-                    out.extend(acc.finish(true));
-                    open = None;
-                }
                 heating.step(tau_s, time, HeatInput::still(known));
                 continue;
             }
         };
-        if x.trip != open {
-            out.extend(acc.finish(true));
-            open = x.trip;
-        }
         if counts_as_evidence(x) {
             let p = match given.next() {
                 Some(p) => *p,

@@ -1,5 +1,5 @@
 //! The whole identification, stages 3-7 calibrated from one healthy history (paper, Sec. 3-4):
-//! `fit()` turns an aligned series into the one artefact every later use reads, [`FittedModel`].
+//! `fit()` turns an aligned history into the one artefact every later use reads, [`FittedModel`].
 //!
 //! ```text
 //! aligned series ─ features (load-cell gain fitted here) ─ hybrid model θ, net, σ   (stage 4)
@@ -23,8 +23,7 @@ use crate::model::train::{self, TrainPoint, TrainingRows};
 use crate::model::{FitSummary, HybridModel, PhysParams, TrainConfig};
 use crate::operation::{OperationReference, Silence};
 use crate::risk::{evidence_predictions, trip_evidence_from, RiskConfig, TripEvidence, N_MODES};
-use crate::sample::AlignedSeries;
-use crate::sample::HOUR_S;
+use crate::sample::{pass, History, HOUR_S};
 use crate::sensor::SensorLimits;
 
 /// Everything `monitor` needs, as written by `fit` (DATA.md §5). Its JSON form, the model
@@ -83,7 +82,7 @@ pub const BASELINE_MARGIN: f64 = 0.5;
 /// [`Error::Unidentifiable`](crate::Error::Unidentifiable) when the data cannot determine the
 /// model or calibrate the risk; [`Error::InvalidConfig`](crate::Error::InvalidConfig) for bad settings.
 pub fn fit(
-    series: &AlignedSeries,
+    series: &dyn History,
     elevator: &Elevator,
     cfg: &TrainConfig,
     observer: &mut dyn FnMut(&TrainPoint),
@@ -104,7 +103,7 @@ pub fn fit(
 /// As [`fit`], and [`Error::InvalidConfig`](crate::Error::InvalidConfig) for a target that is
 /// not a positive number.
 pub fn fit_with(
-    series: &AlignedSeries,
+    series: &dyn History,
     elevator: &Elevator,
     cfg: &TrainConfig,
     calibration: &CalibrationSettings,
@@ -116,12 +115,14 @@ pub fn fit_with(
     // The rows are kept as the passes below read them (TrainingRows), never all of them whole:
     // a week of them took twice the memory of the series they came from.
     let mut trips = Vec::new();
-    let rows = TrainingRows::from_rows(crate::features::rows(series, &feature_cfg).map(
-        |(row, trip)| {
-            trips.extend(trip);
-            row
-        },
-    ));
+    let rows = pass(series, |samples| {
+        TrainingRows::from_rows(
+            crate::features::rows(samples, &feature_cfg).map(|(row, trip)| {
+                trips.extend(trip);
+                row
+            }),
+        )
+    })?;
     let prior = PhysParams::prior_centre(elevator);
     let observed = train::observations_of(
         &rows,
@@ -166,27 +167,28 @@ pub fn fit_with(
     });
     drop(rows);
     let mut calibrated = calibrate(&healthy_trips, tau_s, &fit_error, calibration)?;
-    calibrated
-        .sensor
-        .calibrate_load_zero(&series.samples, feature_cfg.moving_threshold_mps);
-    calibrated.sensor.calibrate_rest_voltage(
-        &series.samples,
-        feature_cfg.moving_threshold_mps,
-        hybrid
-            .parameters
-            .voltage(1, hybrid.elevator.rated_speed_mps, 0.0),
-    );
+    let thr = feature_cfg.moving_threshold_mps;
+    pass(series, |samples| {
+        calibrated.sensor.calibrate_load_zero(samples, thr)
+    })?;
+    let rated_voltage_v = hybrid
+        .parameters
+        .voltage(1, hybrid.elevator.rated_speed_mps, 0.0);
+    pass(series, |samples| {
+        calibrated
+            .sensor
+            .calibrate_rest_voltage(samples, thr, rated_voltage_v);
+    })?;
     summary
         .warnings
         .extend(short_training_notes(&calibrated.report, &calibrated.risk));
     let learnt = OperationReference::learn(
-        &series.samples,
+        series,
         &trips,
-        series.step_s,
         feature_cfg.moving_threshold_mps,
         elevator.floors as usize,
         calibration.target_false_advisories_per_year,
-    );
+    )?;
     summary
         .warnings
         .extend(training_outage_note(&learnt.outages));
@@ -200,7 +202,7 @@ pub fn fit_with(
         calibration: Some(calibrated.report),
         train: cfg.clone(),
         summary,
-        step_s: Some(series.step_s),
+        step_s: Some(series.step_s()),
         operation: Some(operation),
     };
     Ok(FitOutcome {

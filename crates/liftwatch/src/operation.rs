@@ -149,12 +149,13 @@ use std::collections::{BTreeMap, VecDeque};
 
 use serde::{Deserialize, Serialize};
 
+use crate::error::Result;
 use crate::exact;
 use crate::features::Trip;
 use crate::mode::FaultMode;
 use crate::risk::sequential::{gaussian_llr, CLIP, N_SIZES, SIZES};
 use crate::rng::{moving_blocks, BlockStart, Rng};
-use crate::sample::{Sample, DAY_S, HOUR_S, YEAR_DAYS};
+use crate::sample::{pass, History, Sample, DAY_S, HOUR_S, YEAR_DAYS};
 use crate::stats::{chi_square_quantile, median, robust_sigma, sorted_quantile};
 
 /// A door that opens again within this long (s) of closing, the car not having moved, is
@@ -1587,26 +1588,34 @@ impl OperationReference {
     /// the alarm budget `target` (false door advisories per year). The silences of the
     /// history that were outages by the monitor's own rule come back beside it, left out of
     /// Λ_max (module docs, "Why the training's own outages are left out of it").
+    ///
+    /// # Errors
+    /// As [`History::read`]: the history is read twice.
     pub fn learn(
-        samples: &[Sample],
+        history: &dyn History,
         trips: &[Trip],
-        step_s: f64,
         thr: f64,
         floors: usize,
         target: f64,
-    ) -> Learnt {
+    ) -> Result<Learnt> {
+        let step_s = history.step_s();
         // Trip rate per hour of the week, over the hours with speed data; and the same
         // counts per day of the training, for the rates that leave one day out.
         let mut hours = [0.0f64; HOURS_PER_WEEK];
         let mut starts = [0.0f64; HOURS_PER_WEEK];
         let mut per_day: BTreeMap<i64, WeekCounts> = BTreeMap::new();
-        for x in samples {
-            if x.time.is_finite() && x.speed.is_finite() {
-                hours[hour_bin(x.time)] += step_s / HOUR_S;
-                per_day.entry(day_of(x.time)).or_default().hours[hour_bin(x.time)] +=
-                    step_s / HOUR_S;
+        let n_samples = pass(history, |samples| {
+            let mut n = 0usize;
+            for x in samples {
+                n += 1;
+                if x.time.is_finite() && x.speed.is_finite() {
+                    hours[hour_bin(x.time)] += step_s / HOUR_S;
+                    per_day.entry(day_of(x.time)).or_default().hours[hour_bin(x.time)] +=
+                        step_s / HOUR_S;
+                }
             }
-        }
+            n
+        })?;
         for t in trips {
             starts[hour_bin(t.start_time)] += 1.0;
             if t.start_time.is_finite() {
@@ -1654,31 +1663,33 @@ impl OperationReference {
         let mut tr = OperationTracker::new();
         let mut silences: Vec<Silence> = Vec::new();
         let mut cycles = Vec::new();
-        for x in samples {
-            let judge = judges
-                .binary_search_by_key(&day_of(x.time), |(d, _)| *d)
-                .map_or(&probe, |i| &judges[i].1);
-            if let Some(c) = tr.push(x, step_s, thr, Some(judge)) {
-                cycles.push(c);
-            }
-            // Λ only grows within a silence; the car in use starts the next one.
-            match silences.last_mut() {
-                Some(s) if s.start.to_bits() == tr.rest_since.to_bits() => {
-                    s.end = x.time;
-                    s.expected_trips = s.expected_trips.max(tr.expected);
+        pass(history, |samples| {
+            for x in samples {
+                let judge = judges
+                    .binary_search_by_key(&day_of(x.time), |(d, _)| *d)
+                    .map_or(&probe, |i| &judges[i].1);
+                if let Some(c) = tr.push(&x, step_s, thr, Some(judge)) {
+                    cycles.push(c);
                 }
-                _ if tr.expected > 0.0 => silences.push(Silence {
-                    start: tr.rest_since,
-                    end: x.time,
-                    expected_trips: tr.expected,
-                }),
-                _ => {}
+                // Λ only grows within a silence; the car in use starts the next one.
+                match silences.last_mut() {
+                    Some(s) if s.start.to_bits() == tr.rest_since.to_bits() => {
+                        s.end = x.time;
+                        s.expected_trips = s.expected_trips.max(tr.expected);
+                    }
+                    _ if tr.expected > 0.0 => silences.push(Silence {
+                        start: tr.rest_since,
+                        end: x.time,
+                        expected_trips: tr.expected,
+                    }),
+                    _ => {}
+                }
             }
-        }
+        })?;
         silences.sort_by(|a, b| b.expected_trips.total_cmp(&a.expected_trips));
         let outages: Vec<Silence> = silences.drain(..training_outages(&silences)).collect();
         let quiet = silences.first().map_or(0.0, |s| s.expected_trips);
-        let span_days = samples.len() as f64 * step_s / DAY_S;
+        let span_days = n_samples as f64 * step_s / DAY_S;
         probe.quiet_max_expected_trips = quiet;
         let margin = outage_limit(quiet);
         probe.outage_expected_trips =
@@ -1697,10 +1708,10 @@ impl OperationReference {
                 probe.hour_of_day_rates = hour_of_day_rates(&hours, &starts).to_vec();
             }
         }
-        Learnt {
+        Ok(Learnt {
             reference: probe,
             outages,
-        }
+        })
     }
 
     /// Whether silences are judged: the training saw every hour of the day. Without (a
@@ -1962,6 +1973,7 @@ impl DoorTransfer {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sample::AlignedSeries;
 
     fn sample(t: f64, speed: f64, door: f64, floor: f64) -> Sample {
         Sample {
@@ -2372,7 +2384,7 @@ mod tests {
         let (samples, trips) = office_log(3, |t| {
             (7.0..19.0).contains(&((t / HOUR_S) % 24.0)).then_some(120)
         });
-        let r = OperationReference::learn(&samples, &trips, 1.0, 0.05, 2, 1.0).reference;
+        let r = learn_1s(&samples, &trips).reference;
         assert!((r.trips_per_hour[hour_bin(DAY_S + 9.0 * HOUR_S)] - 30.0).abs() < 1e-9);
         assert_eq!(r.trips_per_hour[hour_bin(5.0 * DAY_S + 9.0 * HOUR_S)], 0.0);
         let outages = |from: f64, to: f64, every: i64| {
@@ -2400,15 +2412,7 @@ mod tests {
             .copied()
             .filter(|t| (f64::from(from)..f64::from(to)).contains(&t.start_time))
             .collect();
-        let morning = OperationReference::learn(
-            &samples[from as usize..to as usize],
-            &morning_trips,
-            1.0,
-            0.05,
-            2,
-            1.0,
-        )
-        .reference;
+        let morning = learn_1s(&samples[from as usize..to as usize], &morning_trips).reference;
         assert!(!morning.checks_silence());
         assert!(r.checks_silence());
         let silent_morning = (7 * DAY_S as i64..(7.5 * DAY_S) as i64).map(|t| {
@@ -2607,7 +2611,17 @@ mod tests {
     /// every `every(t)` s (None: no trip in that second's hour).
     fn learnt(days: u32, every: impl Fn(f64) -> Option<u32>) -> Learnt {
         let (samples, trips) = office_log(days, every);
-        OperationReference::learn(&samples, &trips, 1.0, 0.05, 2, 1.0)
+        learn_1s(&samples, &trips)
+    }
+
+    /// What `samples` at step 1 s, with their `trips`, teach a two-landing car (motion
+    /// threshold 0.05 m/s, a false door advisory a year).
+    fn learn_1s(samples: &[Sample], trips: &[Trip]) -> Learnt {
+        let history = AlignedSeries {
+            step_s: 1.0,
+            samples: samples.to_vec(),
+        };
+        OperationReference::learn(&history, trips, 0.05, 2, 1.0).expect("held in memory")
     }
 
     /// The samples and trips of [`learnt`]'s log.

@@ -6,6 +6,8 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::error::Result;
+
 /// Seconds in an hour. Every time in the pipeline is in seconds of the data clock (DATA.md
 /// §2), so the hour and the day are named once, here, for every stage that counts in them.
 pub const HOUR_S: f64 = 3600.0;
@@ -63,6 +65,51 @@ pub struct AlignedSeries {
     pub step_s: f64,
     /// The samples, in time order, `step_s` apart.
     pub samples: Vec<Sample>,
+}
+
+/// An aligned history that can be read more than once, each time from its first sample: what
+/// the fit reads ([`crate::fit::fit`]), in a few passes, where holding a long log's samples
+/// would cost 64 bytes each. An [`AlignedSeries`] in memory is one; a file's samples spilled to
+/// disk as they were aligned (`align::read_spilled`) are another.
+pub trait History {
+    /// The uniform step (s).
+    fn step_s(&self) -> f64;
+
+    /// Gives `read` every sample in time order, from the first; each call reads them anew.
+    ///
+    /// # Errors
+    /// What the store fails with when it is read.
+    fn read(&self, read: &mut dyn FnMut(&mut dyn Iterator<Item = Sample>)) -> Result<()>;
+}
+
+/// One pass over `history`: `f` over its samples, and what `f` returns.
+///
+/// # Errors
+/// As [`History::read`].
+pub fn pass<R>(
+    history: &(impl History + ?Sized),
+    f: impl FnOnce(&mut dyn Iterator<Item = Sample>) -> R,
+) -> Result<R> {
+    let mut f = Some(f);
+    let mut out = None;
+    history.read(&mut |samples| out = f.take().map(|f| f(samples)))?;
+    // A store that never called `read` holds no sample: `f` sees an empty pass.
+    Ok(match (out, f) {
+        (Some(out), _) => out,
+        (None, Some(f)) => f(&mut std::iter::empty()),
+        (None, None) => unreachable!("`f` ran, so it returned"),
+    })
+}
+
+impl History for AlignedSeries {
+    fn step_s(&self) -> f64 {
+        self.step_s
+    }
+
+    fn read(&self, read: &mut dyn FnMut(&mut dyn Iterator<Item = Sample>)) -> Result<()> {
+        read(&mut self.samples.iter().copied());
+        Ok(())
+    }
 }
 
 impl AlignedSeries {

@@ -39,6 +39,8 @@
 //! energised at rest reads U0 plus the holding force's resistive drop; both come back stop
 //! after stop on a healthy machine, and a shift of them is the sensor's.
 
+use std::borrow::Borrow;
+
 use serde::{Deserialize, Serialize};
 
 use crate::exact;
@@ -397,11 +399,15 @@ impl SensorLimits {
     /// the median of the parked readings, and a limit of `ZERO_LIMIT_MARGIN` times their
     /// largest deviation from it, at least `ZERO_LIMIT_FLOOR_PCT`. A training with fewer
     /// than `ZERO_MIN_PARKINGS` parkings leaves the check off.
-    pub fn calibrate_load_zero(&mut self, samples: &[Sample], thr: f64) {
+    pub fn calibrate_load_zero<S: Borrow<Sample>>(
+        &mut self,
+        samples: impl IntoIterator<Item = S>,
+        thr: f64,
+    ) {
         let mut parking = Parking::new();
         let readings: Vec<f64> = samples
-            .iter()
-            .filter_map(|x| parking.push(x, thr))
+            .into_iter()
+            .filter_map(|x| parking.push(x.borrow(), thr))
             .collect();
         if readings.len() < ZERO_MIN_PARKINGS {
             self.load_zero_pct = None;
@@ -419,9 +425,17 @@ impl SensorLimits {
     /// at least [`REST_ALLOWANCE_FRAC`] of the rated voltage; σ their robust spread, at least
     /// `REST_SD_FLOOR_FRAC` of the allowance. A training with fewer than
     /// `REST_MIN_STOPS` stops leaves the check off.
-    pub fn calibrate_rest_voltage(&mut self, samples: &[Sample], thr: f64, rated_voltage_v: f64) {
+    pub fn calibrate_rest_voltage<S: Borrow<Sample>>(
+        &mut self,
+        samples: impl IntoIterator<Item = S>,
+        thr: f64,
+        rated_voltage_v: f64,
+    ) {
         let mut rest = RestVoltage::default();
-        let readings: Vec<f64> = samples.iter().filter_map(|x| rest.push(x, thr)).collect();
+        let readings: Vec<f64> = samples
+            .into_iter()
+            .filter_map(|x| rest.push(x.borrow(), thr))
+            .collect();
         let floor = REST_ALLOWANCE_FRAC * rated_voltage_v.abs();
         if readings.len() < REST_MIN_STOPS || floor.is_nan() || floor <= 0.0 {
             self.rest_voltage_v = None;
@@ -906,7 +920,7 @@ mod tests {
     #[test]
     fn a_parked_car_reads_the_empty_cars_load_and_a_shifted_zero_is_a_sensor_fault() {
         let mut limits = SensorLimits::default();
-        limits.calibrate_load_zero(&day(0.0, 0.0, 1), 0.05);
+        limits.calibrate_load_zero(day(0.0, 0.0, 1), 0.05);
         let z = limits
             .load_zero_pct
             .expect("24 parkings calibrate the check");
@@ -932,7 +946,7 @@ mod tests {
     #[test]
     fn a_car_stuck_with_its_passengers_is_no_parking_until_its_door_has_opened() {
         let mut limits = SensorLimits::default();
-        limits.calibrate_load_zero(&day(0.0, 0.0, 1), 0.05);
+        limits.calibrate_load_zero(day(0.0, 0.0, 1), 0.05);
         // A day as `day`'s; then 25 % board, the car stops between floors, door closed, for
         // an hour; freed, it opens its door, lets them out and parks empty for an hour; then
         // it is sent home with its door shut and parks there, empty, for another.
@@ -1031,7 +1045,7 @@ mod tests {
     #[test]
     fn the_parked_readings_witness_a_zero_shift_below_the_limit() {
         let mut limits = SensorLimits::default();
-        limits.calibrate_load_zero(&day(0.0, 0.0, 1), 0.05);
+        limits.calibrate_load_zero(day(0.0, 0.0, 1), 0.05);
         assert!(limits.load_zero_sd_pct >= ZERO_SD_FLOOR_PCT);
         let witness = |offset: f64, since: f64| {
             let mut check = SensorCheck::new();
@@ -1159,7 +1173,7 @@ mod tests {
         for (rest_v, pre_torque) in [(0.3, true), (11.0, false)] {
             let mut limits = SensorLimits::default();
             limits.calibrate_rest_voltage(
-                &stops(300, rest_v, pre_torque, usize::MAX, 1),
+                stops(300, rest_v, pre_torque, usize::MAX, 1),
                 0.05,
                 350.0,
             );

@@ -1,11 +1,11 @@
 //! `liftwatch fit`: healthy telemetry → features → hybrid model → calibrated risk → model file.
 
 use liftwatch::sample::HOUR_S;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::Context;
-use liftwatch::align::{read_series, AlignConfig};
+use liftwatch::align::{read_spilled, AlignConfig};
 use liftwatch::calibrate::CalibrationSettings;
 use liftwatch::model::train::{Optimizer, TrainPoint};
 use liftwatch::model::TrainConfig;
@@ -76,12 +76,23 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .context("--false-advisories-per-year")?;
     let elevator = Elevator::from_toml_file(&args.elevator)?;
     let align = AlignConfig::default().with_step(args.step.unwrap_or(DEFAULT_STEP_S))?;
-    let (mut series, mut report) = read_series(&args.input, &align)?;
+    // The aligned samples wait on a disk beside the model for the fit's passes (the
+    // directory is writable, or the model could not be saved; /tmp may be memory).
+    let spill_dir = match args.out.parent() {
+        _ if args.out == Path::new("-") => std::env::temp_dir(),
+        Some(dir) if !dir.as_os_str().is_empty() => dir.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let (mut series, mut report) = read_spilled(&args.input, &align, &spill_dir)?;
     if let Some(found) = input_step(&report).filter(|&f| differs(f, align.step_s)) {
         if args.step.is_none() {
             // Aligned input keeps its step: re-stepped by interpolation it would be fitted at
             // a step the data do not have, and the model would record that step.
-            (series, report) = read_series(&args.input, &AlignConfig::default().with_step(found)?)?;
+            (series, report) = read_spilled(
+                &args.input,
+                &AlignConfig::default().with_step(found)?,
+                &spill_dir,
+            )?;
         } else {
             warn(
                 &args.input,

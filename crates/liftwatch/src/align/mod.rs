@@ -43,13 +43,16 @@
 //! push-based [`Aligner`] of a service, the same engine with a serialisable state; `sink.rs` the
 //! receiving end, [`SampleSink`] with its own error type, and its sinks; `writer.rs` the
 //! aligned CSV; `pipelined.rs` [`align_file_pipelined`], the reading on a thread of its own
-//! beside a sink that has work of its own to do (the monitor's step, the aligned writer).
+//! beside a sink that has work of its own to do (the monitor's step, the aligned writer);
+//! `spill.rs` [`read_spilled`], the samples in a temporary file for a reader that reads them
+//! in passes without holding them (the fit).
 
 mod aligner;
 mod engine;
 mod passes;
 mod pipelined;
 mod sink;
+mod spill;
 mod writer;
 
 use std::io::{Read, Seek, SeekFrom};
@@ -69,6 +72,7 @@ pub use engine::Push;
 pub(crate) use passes::RowStream;
 pub use pipelined::align_file_pipelined;
 pub use sink::{sink_fn, AlignedFileSink, FnSink, SampleSink};
+pub use spill::{read_spilled, SpillSink, SpilledSeries};
 pub(crate) use writer::push_sample;
 pub use writer::{write_aligned, write_aligned_file, AlignedWriter};
 

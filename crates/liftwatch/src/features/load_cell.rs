@@ -14,7 +14,9 @@ use super::accel::A_L_MAX_MPS2;
 use super::{rows, FeatureConfig, FeatureRow, MAX_STEP_S};
 use crate::elevator::G;
 use crate::error::{Error, Result};
-use crate::sample::AlignedSeries;
+use crate::sample::{pass, History, Sample};
+use std::cell::RefCell;
+use std::collections::VecDeque;
 
 /// Speed change per step (m/s) below which a moving sample counts as cruising for
 /// [`fit_load_cell`]: a point where the acceleration is about zero.
@@ -78,15 +80,15 @@ const FIT_MIN_MOVING_S: f64 = 60.0;
 /// 5 complete door-closed trips reach a cruising speed or there is less than 60 s of motion
 /// (callers that can live with the default p keep `cfg`); [`Error::Unidentifiable`] when the
 /// equations do not determine p.
-pub fn fit_load_cell(series: &AlignedSeries, cfg: &FeatureConfig) -> Result<FeatureConfig> {
+pub fn fit_load_cell(history: &dyn History, cfg: &FeatureConfig) -> Result<FeatureConfig> {
     cfg.validate()?;
-    let mut law = fit_round(series, cfg)?;
+    let mut law = pass(history, |samples| fit_round(samples, cfg))??;
     if law.load_cell_load_gain == cfg.load_cell_load_gain {
         // The configured law stands; its rows were extracted with it, so one round is the fit.
         return Ok(law);
     }
     for _ in 1..LAW_ROUNDS {
-        let next = fit_round(series, &law)?;
+        let next = pass(history, |samples| fit_round(samples, &law))??;
         let moved = (next.load_cell_load_gain - law.load_cell_load_gain).abs()
             + (next.load_cell_platform_ratio - law.load_cell_platform_ratio).abs();
         law = next;
@@ -99,7 +101,10 @@ pub fn fit_load_cell(series: &AlignedSeries, cfg: &FeatureConfig) -> Result<Feat
 
 /// One least-squares round of [`fit_load_cell`] on rows extracted with the law of `cfg`, in
 /// one pass that holds the rows of one trip at a time.
-fn fit_round(series: &AlignedSeries, cfg: &FeatureConfig) -> Result<FeatureConfig> {
+fn fit_round(
+    samples: &mut dyn Iterator<Item = Sample>,
+    cfg: &FeatureConfig,
+) -> Result<FeatureConfig> {
     let mut normal = Normal::holding(cfg.load_cell_load_gain);
     let mut used_trips = 0usize;
     // Summed from +0.0: std's float `sum` starts at -0.0, which an empty log printed as "-0 s".
@@ -107,9 +112,21 @@ fn fit_round(series: &AlignedSeries, cfg: &FeatureConfig) -> Result<FeatureConfi
     let mut last_ended = None;
     // The trip being gathered: its index, and its rows from the standstill before it.
     let mut open: Option<(u32, TripRows<'_>)> = None;
-    let mut prev: Option<FeatureRow> = None;
-    for (i, (row, ended)) in rows(series, cfg).enumerate() {
-        if let Some(p) = &prev {
+    let mut prev: Option<(FeatureRow, Reading)> = None;
+    // The readings of the samples pushed whose rows have not come out yet: a row comes out
+    // for every sample, in order, a few samples late.
+    let pending = RefCell::new(VecDeque::new());
+    let samples = samples.inspect(|x| {
+        pending.borrow_mut().push_back(Reading {
+            load: x.load,
+            door: x.door,
+        });
+    });
+    for (row, ended) in rows(samples, cfg) {
+        let Some(reading) = pending.borrow_mut().pop_front() else {
+            break;
+        };
+        if let Some((p, _)) = &prev {
             let dt = row.time - p.time;
             if row.s != 0 && (0.0..=MAX_STEP_S).contains(&dt) {
                 moving_s += dt;
@@ -117,6 +134,7 @@ fn fit_round(series: &AlignedSeries, cfg: &FeatureConfig) -> Result<FeatureConfi
         }
         if let Some((k, mut trip)) = open.take() {
             trip.rows.push(row);
+            trip.readings.push(reading);
             if row.trip == Some(k) {
                 open = Some((k, trip));
             } else if last_ended == Some(k) {
@@ -124,19 +142,18 @@ fn fit_round(series: &AlignedSeries, cfg: &FeatureConfig) -> Result<FeatureConfi
                 used_trips += usize::from(trip.add_segments(&mut normal));
             }
         }
-        if let (Some(k), Some(p)) = (row.trip, &prev) {
+        if let (Some(k), Some((p, p_reading))) = (row.trip, &prev) {
             if open.is_none() && p.trip != Some(k) {
                 let trip = TripRows {
-                    series,
                     rows: vec![*p, row],
-                    first: i - 1,
+                    readings: vec![*p_reading, reading],
                     cfg,
                 };
                 open = Some((k, trip));
             }
         }
         last_ended = ended.map(|t| t.index).or(last_ended);
-        prev = Some(row);
+        prev = Some((row, reading));
     }
     if used_trips < FIT_MIN_TRIPS || moving_s < FIT_MIN_MOVING_S {
         return Err(Error::TooLittleMotion {
@@ -231,14 +248,21 @@ impl Normal {
 }
 
 /// One complete trip of the history: its rows, the first and the last of them the standstills
-/// around it and the others moving.
+/// around it and the others moving, and the load cell's and the door's readings of each.
 struct TripRows<'a> {
-    series: &'a AlignedSeries,
     rows: Vec<FeatureRow>,
-    /// The index of the first row in the series.
-    first: usize,
+    readings: Vec<Reading>,
     /// The settings the rows were extracted with (their load-cell law).
     cfg: &'a FeatureConfig,
+}
+
+/// What the load-cell fit reads of a sample besides its feature row.
+#[derive(Clone, Copy, Debug)]
+struct Reading {
+    /// The load cell (percent of rated load).
+    load: f64,
+    /// The door: 1 open, 0 closed.
+    door: f64,
 }
 
 impl TripRows<'_> {
@@ -267,10 +291,10 @@ impl TripRows<'_> {
         let l_ref = (start + 1..=end)
             .find(|&j| rows[j].a_l.is_finite())
             .map_or(f64::NAN, |j| {
-                self.series.samples[self.first + j].load - 100.0 * self.z_moving(&rows[j]) / G
+                self.readings[j].load - 100.0 * self.z_moving(&rows[j]) / G
             });
         let z_rest = |j: usize| {
-            let x = &self.series.samples[self.first + j];
+            let x = &self.readings[j];
             let z = G * (x.load - l_ref) / 100.0;
             if x.door <= 0.5 && z.is_finite() && z.abs() <= A_L_MAX_MPS2 {
                 z

@@ -253,40 +253,41 @@ pub fn extract(series: &AlignedSeries, cfg: &FeatureConfig) -> Features {
         rows: Vec::with_capacity(series.len()),
         trips: Vec::new(),
     };
-    for (row, trip) in rows(series, cfg) {
+    for (row, trip) in rows(series.samples.iter().copied(), cfg) {
         out.rows.push(row);
         out.trips.extend(trip);
     }
     out
 }
 
-/// The features of a whole series one row at a time, each with the trip it ended (if any):
+/// The features of aligned `samples` one row at a time, each with the trip it ended (if any):
 /// a loop over [`FeatureTracker`], nothing else. For callers that keep less than every row
-/// (the fit keeps the moving ones, [`crate::model::train::TrainingRows`]).
-pub fn rows<'a>(series: &'a AlignedSeries, cfg: &FeatureConfig) -> Rows<'a> {
+/// (the fit keeps the moving ones, [`crate::model::train::TrainingRows`]) or read the samples
+/// in passes ([`crate::sample::History`]).
+pub fn rows<I: Iterator<Item = Sample>>(samples: I, cfg: &FeatureConfig) -> Rows<I> {
     Rows {
-        samples: series.samples.iter(),
+        samples,
         tracker: FeatureTracker::new(cfg.clone()),
         held: None,
     }
 }
 
 /// The iterator of [`rows`].
-pub struct Rows<'a> {
+pub struct Rows<I> {
     /// The samples not yet pushed.
-    samples: std::slice::Iter<'a, Sample>,
+    samples: I,
     /// The streaming step the samples go through.
     tracker: FeatureTracker,
     /// The rows the tracker held at the end of the data, once it was told so.
     held: Option<std::vec::IntoIter<FeatureRow>>,
 }
 
-impl Iterator for Rows<'_> {
+impl<I: Iterator<Item = Sample>> Iterator for Rows<I> {
     type Item = (FeatureRow, Option<Trip>);
 
     fn next(&mut self) -> Option<Self::Item> {
         for s in self.samples.by_ref() {
-            if let Some(row) = self.tracker.push(s) {
+            if let Some(row) = self.tracker.push(&s) {
                 return Some((row, self.tracker.take_trip()));
             }
         }
@@ -301,7 +302,8 @@ impl Iterator for Rows<'_> {
     /// At most a row per sample: the samples to come, and the one the tracker holds.
     fn size_hint(&self) -> (usize, Option<usize>) {
         let held = self.held.as_ref().map_or(1, ExactSizeIterator::len);
-        (0, Some(self.samples.len() + held))
+        let samples = self.samples.size_hint().1;
+        (0, samples.and_then(|n| n.checked_add(held)))
     }
 }
 

@@ -1208,7 +1208,7 @@ mod tests {
                 .parameters
                 .voltage(1, model.hybrid.elevator.rated_speed_mps, 0.0);
         let mut sensor = model.sensor.clone();
-        sensor.calibrate_rest_voltage(&samples(0.5, 8, None), thr, rated_v);
+        sensor.calibrate_rest_voltage(samples(0.5, 8, None), thr, rated_v);
         model.sensor = sensor;
         assert!(
             model.sensor.rest_voltage_v.is_some(),

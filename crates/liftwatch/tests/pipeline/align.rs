@@ -241,3 +241,43 @@ fn messy_fixture_matches_its_golden_file() {
         golden.display()
     );
 }
+
+/// The fit reads a file's samples in passes from a spill on disk (`fit` on the command line)
+/// instead of holding them: the model must be the one the samples held in memory give.
+#[test]
+fn a_fit_of_a_files_spilled_samples_is_the_fit_of_the_samples_in_memory() {
+    use liftwatch::align::read_spilled;
+    use liftwatch::fit::fit;
+    use liftwatch::model::TrainConfig;
+    use liftwatch::sample::{pass, HOUR_S};
+    use liftwatch::sim::{simulate, SimConfig};
+    use liftwatch::Elevator;
+
+    let dir = Dir::new("spilled-fit");
+    let e = Elevator::new(800.0, 1.6, 12);
+    let mut sim = SimConfig::new(e.clone(), 0.25, 41);
+    sim.start_s = 7.0 * HOUR_S;
+    let path = dir.0.join("aligned.csv");
+    let samples = simulate(&sim)
+        .expect("a valid simulation")
+        .aligned()
+        .samples;
+    write_aligned_file(&path, &samples).unwrap();
+    let cfg = AlignConfig::default();
+    let (series, _) = read_series(&path, &cfg).unwrap();
+    let (spilled, _) = read_spilled(&path, &cfg, &dir.0).unwrap();
+    assert_eq!(spilled.len(), series.len() as u64);
+    let read_back: Vec<Sample> = pass(&spilled, |s| s.collect()).unwrap();
+    assert!(read_back
+        .iter()
+        .zip(&series.samples)
+        .all(|(a, b)| format!("{a:?}") == format!("{b:?}")));
+    let train = TrainConfig {
+        log_every: 0,
+        ..TrainConfig::default()
+    };
+    let in_memory = fit(&series, &e, &train, &mut |_| {}).expect("six hours fit");
+    let from_disk = fit(&spilled, &e, &train, &mut |_| {}).expect("six hours fit");
+    assert_eq!(from_disk.model, in_memory.model);
+    assert_eq!(from_disk.trips, in_memory.trips);
+}

@@ -6,7 +6,8 @@
 //! upload    file::load_str (the CLI's checks) → version n+1, `ready`; the first is activated
 //! activate  one active version per elevator; the worker restarts the monitor from a fresh
 //!           state of it at the stream position it has reached (a rollback is an activation)
-//! fit       stored raw batches of [from, to] → Aligner → fit::fit in a thread → `proposed`
+//! fit       stored raw batches of [from, to] → Aligner → a spill in --data → fit::fit in a
+//!           thread → `proposed`
 //! visit     labels the open events confirmed / not_found; rebaseline → fresh monitor state
 //! ```
 
@@ -18,10 +19,9 @@ use std::path::Path;
 use std::sync::Arc;
 
 use axum::http::StatusCode;
-use liftwatch::align::{AlignConfig, Aligner};
+use liftwatch::align::{AlignConfig, Aligner, SpillSink};
 use liftwatch::ingest::csv::RowReader;
 use liftwatch::ingest::{IngestReport, Layout, Signal};
-use liftwatch::Sample;
 use rusqlite::{params, Connection, OptionalExtension};
 use serde::Deserialize;
 use serde_json::{json, Map, Value};
@@ -678,7 +678,9 @@ fn fit_from_history(
         .with_reorder_window(FIT_REORDER_WINDOW_S)
         .map_err(|e| e.to_string())?;
     let mut aligner = Aligner::new(&cfg).map_err(|e| e.to_string())?;
-    let mut samples: Vec<Sample> = Vec::new();
+    // The aligned samples wait on disk for the fit's passes, beside the store: a month of
+    // them held in memory is 166 MB per fit under way.
+    let mut samples = SpillSink::new_in(&shared.data_dir).map_err(|e| e.to_string())?;
     let (mut first, mut last) = (f64::INFINITY, f64::NEG_INFINITY);
     shared.read(|c| {
         let mut st = c
@@ -705,13 +707,10 @@ fn fit_from_history(
         Ok(())
     })?;
     aligner.flush(&mut samples).map_err(|e| e.to_string())?;
-    if samples.is_empty() {
+    let series = samples.finish(cfg.step_s).map_err(|e| e.to_string())?;
+    if series.is_empty() {
         return Err("no stored telemetry in the range (raw batches are kept keep_raw_days)".into());
     }
-    let series = liftwatch::AlignedSeries {
-        step_s: cfg.step_s,
-        samples,
-    };
     let mut train = liftwatch::model::train::TrainConfig::default();
     if let Some(n) = req.epochs {
         train.epochs = n;
@@ -722,7 +721,7 @@ fn fit_from_history(
     // The same checks as an upload: a fit the registry would refuse is a failed fit.
     liftwatch::file::load_str(&text, Path::new("fitted model")).map_err(|e| e.to_string())?;
     let fp = liftwatch::monitor::model_fingerprint(&outcome.model);
-    let summary = format!("{} aligned samples", series.samples.len());
+    let summary = format!("{} aligned samples", series.len());
     Ok((text, fp, summary))
 }
 

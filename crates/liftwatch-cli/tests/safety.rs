@@ -174,6 +174,7 @@ fn assert_refused<S: AsRef<str>>(args: &[S], dir: &Path, expect: &str) {
 /// it. Built once per test run.
 struct Fixture {
     aligned: PathBuf,
+    elevator: PathBuf,
     chunks: Vec<PathBuf>,
     model: PathBuf,
 }
@@ -219,6 +220,7 @@ fn fixture() -> &'static Fixture {
         ]);
         Fixture {
             aligned,
+            elevator,
             chunks,
             model,
         }
@@ -416,6 +418,25 @@ impl Drop for Mount {
 fn a_full_disk_leaves_no_partial_and_no_temporary_file() {
     let fx = fixture();
     let dir = Dir::new("full");
+    let fit_into = |out: &Path| {
+        vec![
+            "fit".to_string(),
+            "--input".into(),
+            s(&fx.aligned).into(),
+            "--elevator".into(),
+            s(&fx.elevator).into(),
+            "--out".into(),
+            s(out).into(),
+        ]
+    };
+    // fit keeps its aligned samples beside the model: a directory that is not there is named
+    // before anything is fitted.
+    let missing = dir.path("missing");
+    assert_refused(
+        &fit_into(&missing.join("m.json")),
+        &dir.0,
+        &format!("{}: No such file or directory", s(&missing)),
+    );
     let Some(mount) = Mount::tmpfs(&dir.path("small"), "64k") else {
         return;
     };
@@ -442,6 +463,8 @@ fn a_full_disk_leaves_no_partial_and_no_temporary_file() {
         &small,
         space,
     );
+    // The fit's samples on disk (64 bytes each) do not fit either; nothing of them is left.
+    assert_refused(&fit_into(&small.join("m.json")), &small, space);
     let model = s(&fx.model);
     let input = s(&fx.chunks[3]);
     assert_refused(

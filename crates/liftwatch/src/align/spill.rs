@@ -54,7 +54,8 @@ impl SpillSink {
             .write(true)
             .create_new(true)
             .open(&path)
-            .map_err(|e| Error::io(&path, e))?;
+            // The directory is what the caller named and what is wrong: missing, read-only.
+            .map_err(|e| Error::io(dir, e))?;
         // Open files outlive their name on Unix: removed now, the spill cannot outlive the
         // process. Elsewhere the name goes when the series is dropped.
         #[cfg(unix)]

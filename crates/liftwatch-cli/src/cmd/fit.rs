@@ -1,15 +1,17 @@
 //! `liftwatch fit`: healthy telemetry → features → hybrid model → calibrated risk → model file.
 
-use liftwatch::sample::HOUR_S;
+use liftwatch::sample::{DAY_S, HOUR_S};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::Context;
-use liftwatch::align::{read_spilled, AlignConfig};
+use liftwatch::align::{align_file, AlignConfig, SampleSink, SpillSink, SpilledSeries};
 use liftwatch::calibrate::CalibrationSettings;
+use liftwatch::ingest::IngestReport;
 use liftwatch::model::train::{Optimizer, TrainPoint};
 use liftwatch::model::TrainConfig;
 use liftwatch::Elevator;
+use liftwatch::Sample;
 use liftwatch::{file, fit};
 
 use super::step::{differs, input_step, DEFAULT_STEP_S};
@@ -83,16 +85,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Some(dir) if !dir.as_os_str().is_empty() => dir.to_path_buf(),
         _ => PathBuf::from("."),
     };
-    let (mut series, mut report) = read_spilled(&args.input, &align, &spill_dir)?;
+    let (mut series, mut report) = read(&args.input, &align, &spill_dir, &ui)?;
     if let Some(found) = input_step(&report).filter(|&f| differs(f, align.step_s)) {
         if args.step.is_none() {
             // Aligned input keeps its step: re-stepped by interpolation it would be fitted at
             // a step the data do not have, and the model would record that step.
-            (series, report) = read_spilled(
-                &args.input,
-                &AlignConfig::default().with_step(found)?,
-                &spill_dir,
-            )?;
+            let align = AlignConfig::default().with_step(found)?;
+            (series, report) = read(&args.input, &align, &spill_dir, &ui)?;
         } else {
             warn(
                 &args.input,
@@ -129,6 +128,57 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     ui.say(summary(&outcome.model, outcome.trips.len(), seconds));
     ui.say(format_args!("wrote {out}"));
     ui.json(&json_summary(&outcome, &args, &report, seconds))
+}
+
+/// Samples between two progress lines while the input is read: about a week at 1 s.
+const PROGRESS_EVERY: u64 = 500_000;
+
+/// Reads and aligns `input` into a spill in `dir` (`align::read_spilled`), saying on a
+/// terminal how far it has got: a month's raw log takes seconds.
+fn read(
+    input: &Path,
+    align: &AlignConfig,
+    dir: &Path,
+    ui: &Ui,
+) -> anyhow::Result<(SpilledSeries, IngestReport)> {
+    let mut sink = Counted {
+        spill: SpillSink::new_in(dir)?,
+        samples: 0,
+        step_s: align.step_s,
+        ui,
+    };
+    let report = align_file(input, align, &mut sink)?;
+    ui.progress_done();
+    Ok((sink.spill.finish(align.step_s)?, report))
+}
+
+/// The spill, counting the samples into progress lines.
+struct Counted<'a> {
+    spill: SpillSink,
+    samples: u64,
+    step_s: f64,
+    ui: &'a Ui,
+}
+
+impl SampleSink for Counted<'_> {
+    type Error = liftwatch::Error;
+
+    fn start(&mut self, has_current: bool) -> liftwatch::error::Result<()> {
+        self.samples = 0;
+        self.spill.start(has_current)
+    }
+
+    fn push(&mut self, sample: &Sample) -> liftwatch::error::Result<()> {
+        self.samples += 1;
+        if self.samples % PROGRESS_EVERY == 0 {
+            self.ui.progress(format_args!(
+                "fit: reading, {} samples aligned ({:.0} days)",
+                self.samples,
+                self.samples as f64 * self.step_s / DAY_S,
+            ));
+        }
+        self.spill.push(sample)
+    }
 }
 
 /// The training settings from the flags.

@@ -78,13 +78,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .context("--false-advisories-per-year")?;
     let elevator = Elevator::from_toml_file(&args.elevator)?;
     let align = AlignConfig::default().with_step(args.step.unwrap_or(DEFAULT_STEP_S))?;
-    // The aligned samples wait on a disk beside the model for the fit's passes (the
-    // directory is writable, or the model could not be saved; /tmp may be memory).
-    let spill_dir = match args.out.parent() {
-        _ if args.out == Path::new("-") => std::env::temp_dir(),
-        Some(dir) if !dir.as_os_str().is_empty() => dir.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
+    let spill_dir = spill_dir(&args.out);
     let (mut series, mut report) = read(&args.input, &align, &spill_dir, &ui)?;
     if let Some(found) = input_step(&report).filter(|&f| differs(f, align.step_s)) {
         if args.step.is_none() {
@@ -128,6 +122,26 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     ui.say(summary(&outcome.model, outcome.trips.len(), seconds));
     ui.say(format_args!("wrote {out}"));
     ui.json(&json_summary(&outcome, &args, &report, seconds))
+}
+
+/// Where the aligned samples wait for the fit's passes: on a disk beside the model, whose
+/// directory is writable or the model could not be saved (/tmp may be memory); the system's
+/// temporary directory when the model goes to standard output or a device (`/dev/null`).
+fn spill_dir(out: &Path) -> PathBuf {
+    if out == Path::new("-") {
+        return std::env::temp_dir();
+    }
+    match std::fs::canonicalize(out) {
+        // A link is followed: the model replaces its target, beside which it was written.
+        Ok(real) if real.is_file() => real
+            .parent()
+            .map_or_else(std::env::temp_dir, Path::to_path_buf),
+        Ok(_) => std::env::temp_dir(),
+        Err(_) => match out.parent() {
+            Some(dir) if !dir.as_os_str().is_empty() => dir.to_path_buf(),
+            _ => PathBuf::from("."),
+        },
+    }
 }
 
 /// Samples between two progress lines while the input is read: about a week at 1 s.

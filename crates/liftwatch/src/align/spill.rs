@@ -111,17 +111,7 @@ impl SampleSink for SpillSink {
 
     fn push(&mut self, x: &Sample) -> Result<()> {
         let mut bytes = [0u8; SAMPLE_BYTES];
-        let fields = [
-            x.time,
-            x.speed,
-            x.direction,
-            x.voltage,
-            x.load,
-            x.door,
-            x.floor,
-            x.current,
-        ];
-        for (slot, v) in bytes.chunks_exact_mut(8).zip(fields) {
+        for (slot, v) in bytes.chunks_exact_mut(8).zip(fields(x)) {
             slot.copy_from_slice(&v.to_le_bytes());
         }
         self.out.write_all(&bytes).map_err(|e| self.io(e))?;
@@ -132,6 +122,20 @@ impl SampleSink for SpillSink {
         self.len += 1;
         Ok(())
     }
+}
+
+/// A sample's signals in the spill's order; [`Reader`] takes them back in the same order.
+fn fields(x: &Sample) -> [f64; 8] {
+    [
+        x.time,
+        x.speed,
+        x.direction,
+        x.voltage,
+        x.load,
+        x.door,
+        x.floor,
+        x.current,
+    ]
 }
 
 /// Aligned samples in a temporary file, read back in passes ([`History`]).
@@ -240,20 +244,22 @@ impl Iterator for Reader<'_> {
         }
         let bytes = &self.chunk[self.at..self.at + SAMPLE_BYTES];
         self.at += SAMPLE_BYTES;
-        let field = |i: usize| {
-            let mut b = [0u8; 8];
-            b.copy_from_slice(&bytes[8 * i..8 * i + 8]);
-            f64::from_le_bytes(b)
-        };
+        let mut f = [0.0; 8];
+        for (v, b) in f.iter_mut().zip(bytes.chunks_exact(8)) {
+            let mut le = [0u8; 8];
+            le.copy_from_slice(b);
+            *v = f64::from_le_bytes(le);
+        }
+        let [time, speed, direction, voltage, load, door, floor, current] = f;
         Some(Sample {
-            time: field(0),
-            speed: field(1),
-            direction: field(2),
-            voltage: field(3),
-            load: field(4),
-            door: field(5),
-            floor: field(6),
-            current: field(7),
+            time,
+            speed,
+            direction,
+            voltage,
+            load,
+            door,
+            floor,
+            current,
         })
     }
 }
@@ -294,17 +300,7 @@ mod tests {
     }
 
     fn bits(x: &Sample) -> [u64; 8] {
-        [
-            x.time,
-            x.speed,
-            x.direction,
-            x.voltage,
-            x.load,
-            x.door,
-            x.floor,
-            x.current,
-        ]
-        .map(f64::to_bits)
+        fields(x).map(f64::to_bits)
     }
 
     #[test]

@@ -71,7 +71,8 @@ pub struct FitOutcome {
 /// Margin of the fixed-threshold baseline above the healthy extremes (fraction).
 pub const BASELINE_MARGIN: f64 = 0.5;
 
-/// The whole identification: features (with the load-cell gain fitted on this history),
+/// The whole identification of a healthy `history` (read in a few passes, [`History`]):
+/// features (with the load-cell gain fitted on this history),
 /// the hybrid model, healthy residual scales, the baseline's limits and the calibration of the
 /// risk thresholds on the healthy trips.
 ///
@@ -80,15 +81,16 @@ pub const BASELINE_MARGIN: f64 = 0.5;
 /// # Errors
 /// [`Error::TooLittleMotion`](crate::Error::TooLittleMotion) and
 /// [`Error::Unidentifiable`](crate::Error::Unidentifiable) when the data cannot determine the
-/// model or calibrate the risk; [`Error::InvalidConfig`](crate::Error::InvalidConfig) for bad settings.
+/// model or calibrate the risk; [`Error::InvalidConfig`](crate::Error::InvalidConfig) for bad
+/// settings; what `history` fails with when it is read ([`History::read`]).
 pub fn fit(
-    series: &dyn History,
+    history: &dyn History,
     elevator: &Elevator,
     cfg: &TrainConfig,
     observer: &mut dyn FnMut(&TrainPoint),
 ) -> Result<FitOutcome> {
     fit_with(
-        series,
+        history,
         elevator,
         cfg,
         &CalibrationSettings::default(),
@@ -103,7 +105,7 @@ pub fn fit(
 /// As [`fit`], and [`Error::InvalidConfig`](crate::Error::InvalidConfig) for a target that is
 /// not a positive number.
 pub fn fit_with(
-    series: &dyn History,
+    history: &dyn History,
     elevator: &Elevator,
     cfg: &TrainConfig,
     calibration: &CalibrationSettings,
@@ -111,11 +113,11 @@ pub fn fit_with(
 ) -> Result<FitOutcome> {
     calibration.validate()?;
     let feature_cfg =
-        crate::features::fit_load_cell(series, &FeatureConfig::for_elevator(elevator))?;
+        crate::features::fit_load_cell(history, &FeatureConfig::for_elevator(elevator))?;
     // The rows are kept as the passes below read them (TrainingRows), never all of them whole:
     // a week of them took twice the memory of the series they came from.
     let mut trips = Vec::new();
-    let rows = pass(series, |samples| {
+    let rows = pass(history, |samples| {
         TrainingRows::from_rows(
             crate::features::rows(samples, &feature_cfg).map(|(row, trip)| {
                 trips.extend(trip);
@@ -168,13 +170,13 @@ pub fn fit_with(
     drop(rows);
     let mut calibrated = calibrate(&healthy_trips, tau_s, &fit_error, calibration)?;
     let thr = feature_cfg.moving_threshold_mps;
-    pass(series, |samples| {
+    pass(history, |samples| {
         calibrated.sensor.calibrate_load_zero(samples, thr)
     })?;
     let rated_voltage_v = hybrid
         .parameters
         .voltage(1, hybrid.elevator.rated_speed_mps, 0.0);
-    pass(series, |samples| {
+    pass(history, |samples| {
         calibrated
             .sensor
             .calibrate_rest_voltage(samples, thr, rated_voltage_v);
@@ -183,7 +185,7 @@ pub fn fit_with(
         .warnings
         .extend(short_training_notes(&calibrated.report, &calibrated.risk));
     let learnt = OperationReference::learn(
-        series,
+        history,
         &trips,
         feature_cfg.moving_threshold_mps,
         elevator.floors as usize,
@@ -202,7 +204,7 @@ pub fn fit_with(
         calibration: Some(calibrated.report),
         train: cfg.clone(),
         summary,
-        step_s: Some(series.step_s()),
+        step_s: Some(history.step_s()),
         operation: Some(operation),
     };
     Ok(FitOutcome {

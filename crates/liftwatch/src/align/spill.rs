@@ -24,7 +24,7 @@ use crate::sample::{History, Sample};
 /// Bytes of one spilled sample: its eight signals as `f64`.
 const SAMPLE_BYTES: usize = 64;
 
-/// Samples read back at a time: 256 KiB, a few system calls per second of a month's pass.
+/// Samples read back at a time: 256 KiB, 633 reads for a pass over 30 days at 1 Hz.
 const CHUNK_SAMPLES: usize = 4096;
 
 /// Numbers the spill files of one process apart.
@@ -36,7 +36,9 @@ pub struct SpillSink {
     out: BufWriter<File>,
     /// Where the file was created (gone from its directory on Unix once open).
     path: PathBuf,
+    /// Samples written since the last start.
     len: u64,
+    /// Times of the first and the last of them (s), NaN before the first.
     first_time: f64,
     last_time: f64,
 }
@@ -143,8 +145,11 @@ fn fields(x: &Sample) -> [f64; 8] {
 pub struct SpilledSeries {
     /// Locked for a pass: two passes at once would move each other's position.
     file: Mutex<File>,
+    /// Where it was created, for the messages of its errors.
     path: PathBuf,
+    /// The uniform step (s).
     step_s: f64,
+    /// Samples in the file, and the times of the first and the last (s).
     len: u64,
     first_time: f64,
     last_time: f64,

@@ -533,6 +533,54 @@ fn a_full_disk_leaves_no_partial_and_no_temporary_file() {
     drop(mount);
 }
 
+/// `report --days` draws the input's last days and holds only those; the verdict is the whole
+/// input's. A number of days that is not positive is refused.
+#[test]
+fn a_report_draws_its_last_days() {
+    let fx = fixture();
+    let dir = Dir::new("days");
+    let (model, aligned) = (s(&fx.model), s(&fx.aligned));
+    let whole = dir.path("whole");
+    let last = dir.path("last");
+    let args = |out: &Path, days: &str| {
+        let (out, days) = (s(out).to_string(), format!("--days={days}"));
+        ["report", "--model", model, "--input", aligned, "--out"]
+            .map(String::from)
+            .into_iter()
+            .chain([out, days])
+            .collect::<Vec<String>>()
+    };
+    let report = |out: &Path, days: &str| {
+        let run = ok(&args(out, days));
+        let index = std::fs::read_to_string(out.join("index.html")).expect("index.html");
+        (run.stderr, index)
+    };
+    let (all, all_page) = report(&whole, "31");
+    let (part, part_page) = report(&last, "0.25");
+    // 0.25 days at 1 s, the first of them included, out of the 0.6 days' samples.
+    let n = |text: &str| text.split_whitespace().nth(1).map(str::to_string);
+    assert!(!all.contains("figures of its last"), "{all}");
+    assert_eq!(n(&part), n(&all));
+    assert!(
+        part.contains("; figures of its last 0.25 days (21601 samples)"),
+        "{part}"
+    );
+    assert!(!all_page.contains("its last"));
+    assert!(part_page.contains("aligned.csv, its last 0.25 of 0.6 days"));
+    let verdict = |page: &str| {
+        let at = page.find("id=\"verdict\"").expect("a verdict");
+        page[at..at + 400].to_string()
+    };
+    assert_eq!(verdict(&part_page), verdict(&all_page));
+    for bad in ["0", "-1", "NaN", "inf"] {
+        assert_refused(
+            &args(&dir.path("bad"), bad),
+            &dir.0,
+            "--days must be a positive number of days",
+        );
+    }
+}
+
 #[test]
 fn input_the_state_covers_is_refused_or_skipped() {
     let fx = fixture();

@@ -233,6 +233,29 @@ mod tests {
             series.len(),
             "one monitor row per sample"
         );
+        // The last half alone, as `report --days` draws it: the same rows from the same
+        // one pass, and the whole input's state.
+        let half = series.len() / 2;
+        let (late, window) = Analysis::run_from(&model, &series, series.samples[half].time)
+            .expect("a series in memory reads");
+        let debug = |x: &dyn std::fmt::Debug| format!("{x:?}");
+        assert_eq!(debug(&window.samples), debug(&&series.samples[half..]));
+        assert_eq!(debug(&late.pinn), debug(&&analysis.pinn[half..]));
+        assert_eq!(debug(&late.threshold), debug(&&analysis.threshold[half..]));
+        assert_eq!(
+            debug(&late.features.rows),
+            debug(&&analysis.features.rows[half..])
+        );
+        assert_eq!(debug(&late.state), debug(&analysis.state));
+        let from = window.samples[0].time;
+        let late_trips: Vec<_> = analysis
+            .features
+            .trips
+            .iter()
+            .filter(|t| t.start_time >= from)
+            .collect();
+        assert_eq!(debug(&late.features.trips), debug(&late_trips));
+        assert!(late.features.trips.len() < analysis.features.trips.len());
         let features = &analysis.features;
         let inputs = ReportInputs::new(&analysis, &model, &series, "sim <seed 11>.csv");
         let dir = TempDir::new("all");

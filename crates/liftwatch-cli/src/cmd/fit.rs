@@ -1,19 +1,18 @@
 //! `liftwatch fit`: healthy telemetry → features → hybrid model → calibrated risk → model file.
 
-use liftwatch::sample::{DAY_S, HOUR_S};
-use std::path::{Path, PathBuf};
+use liftwatch::sample::HOUR_S;
+use std::path::PathBuf;
 use std::time::Instant;
 
 use anyhow::Context;
-use liftwatch::align::{align_file, AlignConfig, SampleSink, SpillSink, SpilledSeries};
+use liftwatch::align::AlignConfig;
 use liftwatch::calibrate::CalibrationSettings;
-use liftwatch::ingest::IngestReport;
 use liftwatch::model::train::{Optimizer, TrainPoint};
 use liftwatch::model::TrainConfig;
 use liftwatch::Elevator;
-use liftwatch::Sample;
 use liftwatch::{file, fit};
 
+use super::spill;
 use super::step::{differs, input_step, DEFAULT_STEP_S};
 use super::ui::{finite, ingest_json, named, warn, Ui, UiArgs};
 
@@ -78,14 +77,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .context("--false-advisories-per-year")?;
     let elevator = Elevator::from_toml_file(&args.elevator)?;
     let align = AlignConfig::default().with_step(args.step.unwrap_or(DEFAULT_STEP_S))?;
-    let spill_dir = spill_dir(&args.out);
-    let (mut series, mut report) = read(&args.input, &align, &spill_dir, &ui)?;
+    let spill_dir = spill::beside_file(&args.out);
+    let (mut series, mut report) = spill::read("fit", &args.input, &align, &spill_dir, &ui)?;
     if let Some(found) = input_step(&report).filter(|&f| differs(f, align.step_s)) {
         if args.step.is_none() {
             // Aligned input keeps its step: re-stepped by interpolation it would be fitted at
             // a step the data do not have, and the model would record that step.
             let align = AlignConfig::default().with_step(found)?;
-            (series, report) = read(&args.input, &align, &spill_dir, &ui)?;
+            (series, report) = spill::read("fit", &args.input, &align, &spill_dir, &ui)?;
         } else {
             warn(
                 &args.input,
@@ -122,77 +121,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     ui.say(summary(&outcome.model, outcome.trips.len(), seconds));
     ui.say(format_args!("wrote {out}"));
     ui.json(&json_summary(&outcome, &args, &report, seconds))
-}
-
-/// Where the aligned samples wait for the fit's passes: on a disk beside the model, whose
-/// directory is writable or the model could not be saved (/tmp may be memory); the system's
-/// temporary directory when the model goes to standard output or a device (`/dev/null`).
-fn spill_dir(out: &Path) -> PathBuf {
-    if out == Path::new("-") {
-        return std::env::temp_dir();
-    }
-    match std::fs::canonicalize(out) {
-        // A link is followed: the model replaces its target, beside which it was written.
-        Ok(real) if real.is_file() => real
-            .parent()
-            .map_or_else(std::env::temp_dir, Path::to_path_buf),
-        Ok(_) => std::env::temp_dir(),
-        Err(_) => match out.parent() {
-            Some(dir) if !dir.as_os_str().is_empty() => dir.to_path_buf(),
-            _ => PathBuf::from("."),
-        },
-    }
-}
-
-/// Samples between two progress lines while the input is read: about a week at 1 s.
-const PROGRESS_EVERY: u64 = 500_000;
-
-/// Reads and aligns `input` into a spill in `dir` (`align::read_spilled`), saying on a
-/// terminal how far it has got: a month's raw log takes seconds.
-fn read(
-    input: &Path,
-    align: &AlignConfig,
-    dir: &Path,
-    ui: &Ui,
-) -> anyhow::Result<(SpilledSeries, IngestReport)> {
-    let mut sink = Counted {
-        spill: SpillSink::new_in(dir)?,
-        samples: 0,
-        step_s: align.step_s,
-        ui,
-    };
-    let report = align_file(input, align, &mut sink)?;
-    ui.progress_done();
-    Ok((sink.spill.finish(align.step_s)?, report))
-}
-
-/// The spill, counting the samples into progress lines.
-struct Counted<'a> {
-    spill: SpillSink,
-    samples: u64,
-    step_s: f64,
-    ui: &'a Ui,
-}
-
-impl SampleSink for Counted<'_> {
-    type Error = liftwatch::Error;
-
-    fn start(&mut self, has_current: bool) -> liftwatch::error::Result<()> {
-        self.samples = 0;
-        self.spill.start(has_current)
-    }
-
-    fn push(&mut self, sample: &Sample) -> liftwatch::error::Result<()> {
-        self.samples += 1;
-        if self.samples % PROGRESS_EVERY == 0 {
-            self.ui.progress(format_args!(
-                "fit: reading, {} samples aligned ({:.0} days)",
-                self.samples,
-                self.samples as f64 * self.step_s / DAY_S,
-            ));
-        }
-        self.spill.push(sample)
-    }
 }
 
 /// The training settings from the flags.

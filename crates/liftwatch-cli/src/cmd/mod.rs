@@ -9,6 +9,7 @@ pub mod replay;
 pub mod report;
 pub mod serve;
 pub mod simulate;
+pub mod spill;
 pub mod status;
 pub mod step;
 pub mod ui;

@@ -1,19 +1,22 @@
 //! `liftwatch report`: figures and an HTML page about one input, read with a fitted model
 //! (DATA.md §6).
 //!
-//! The slice of the pipeline: model file → aligned series (either input layout) → features →
-//! both monitors (the paper's method and the fixed-threshold baseline) → the report crate,
-//! which writes each figure as SVG and PNG and `index.html` into `--out`.
+//! The slice of the pipeline: model file → aligned samples (either input layout), spilled to
+//! disk → in one pass, features and both monitors (the paper's method and the fixed-threshold
+//! baseline), keeping the rows of the last `--days` days (`monitor::Analysis::run_from`) → the
+//! report crate, which writes each figure as SVG and PNG and `index.html` into `--out`.
 
 use std::path::PathBuf;
 
 use anyhow::Context;
-use liftwatch::align::{read_series, AlignConfig};
+use liftwatch::align::AlignConfig;
 use liftwatch::file;
 use liftwatch::monitor::Analysis;
 use liftwatch::output::{AtomicDir, FileArg};
+use liftwatch::sample::DAY_S;
 use liftwatch_report::{write_report, ReportInputs};
 
+use super::spill;
 use super::step::{check_input_step, model_step};
 use super::ui::{named, Ui, UiArgs};
 
@@ -35,10 +38,17 @@ pub struct Args {
     /// Alignment step (s); default the model's, and another one is refused.
     #[arg(long)]
     pub step: Option<f64>,
+    /// Days drawn: the figures show the input's last DAYS days, held in memory (about 570
+    /// bytes a sample); the verdict is the whole input's.
+    #[arg(long, default_value_t = DEFAULT_DAYS)]
+    pub days: f64,
     /// Summary: --quiet, --json.
     #[command(flatten)]
     pub ui: UiArgs,
 }
+
+/// Days a report draws by default: a month, about 1.5 GB at 1 Hz.
+const DEFAULT_DAYS: f64 = 31.0;
 
 /// Runs `report` and names `index.html` (on stderr, or in the `--json` object on stdout).
 pub fn run(args: Args) -> anyhow::Result<()> {
@@ -58,8 +68,19 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if let Some(n) = note {
         eprintln!("{n}"); // about the numbers themselves: shown even with --quiet or --json
     }
+    anyhow::ensure!(
+        args.days.is_finite() && args.days > 0.0,
+        "--days must be a positive number of days, not {}",
+        args.days
+    );
     let input = named(&args.input, false);
-    let (series, ingest) = read_series(&args.input, &AlignConfig::default().with_step(step)?)
+    // The input waits on disk beside the report for the one pass that draws its last days.
+    let spill_dir = match args.out.parent() {
+        Some(dir) if !dir.as_os_str().is_empty() => dir.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let align = AlignConfig::default().with_step(step)?;
+    let (spilled, ingest) = spill::read("report", &args.input, &align, &spill_dir, &ui)
         .with_context(|| format!("cannot read {input}"))?;
     check_input_step(step, &ingest, &input)?;
     if ingest.bad_rows > 0 {
@@ -68,18 +89,39 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             &format!("skipped {} bad rows", ingest.bad_rows),
         );
     }
+    let from = spilled.last_time() - args.days * DAY_S;
+    let (analysis, series) = Analysis::run_from(&model, &spilled, from)
+        .with_context(|| format!("cannot read {input}"))?;
+    let cut = series.len() as u64 != spilled.len();
+    let drawn = if cut {
+        format!(
+            "; figures of its last {} days ({} samples)",
+            liftwatch::error::number(args.days),
+            series.len()
+        )
+    } else {
+        String::new()
+    };
     ui.say(format_args!(
-        "report: {} samples from {input}",
-        series.len()
+        "report: {} samples from {input}{drawn}",
+        spilled.len()
     ));
-    let analysis = Analysis::run(&model, &series);
-    let source = if liftwatch::input::is_stdio(&args.input) {
+    let name = if liftwatch::input::is_stdio(&args.input) {
         input.clone()
     } else {
         args.input.file_name().map_or_else(
             || args.input.display().to_string(),
             |n| n.to_string_lossy().into_owned(),
         )
+    };
+    let source = if cut {
+        format!(
+            "{name}, its last {} of {:.1} days",
+            liftwatch::error::number(args.days),
+            spilled.duration_s() / DAY_S
+        )
+    } else {
+        name
     };
     // Written into a temporary directory and moved in at the end: a failure (a full disk) leaves
     // no half-written figure behind.
@@ -97,7 +139,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     ui.json(&serde_json::json!({
         "command": "report",
         "index": index,
-        "samples": series.len(),
+        "samples": spilled.len(),
+        "drawn_samples": series.len(),
         "step_s": step,
         "events": analysis.events.len(),
     }))

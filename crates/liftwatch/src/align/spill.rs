@@ -174,6 +174,11 @@ impl SpilledSeries {
             self.last_time - self.first_time
         }
     }
+
+    /// Time of the last sample (s), NaN without any.
+    pub fn last_time(&self) -> f64 {
+        self.last_time
+    }
 }
 
 impl History for SpilledSeries {

@@ -211,30 +211,61 @@ pub struct Analysis {
 impl Analysis {
     /// Runs the features and both monitors over `series` ([`run`]).
     pub fn run(model: &FittedModel, series: &crate::sample::AlignedSeries) -> Self {
-        let features = crate::features::extract(series, &model.features);
-        let mut m = Monitor::new(model, Method::Pinn);
+        let (analysis, _) = Analysis::run_from(model, series, f64::NEG_INFINITY)
+            .unwrap_or_else(|e| unreachable!("a series in memory reads without error: {e}"));
+        analysis
+    }
+
+    /// Runs the features and both monitors over `history` in one pass, keeping what a report
+    /// draws from time `from` on: the feature rows, the trips that start there, both methods'
+    /// rows, the events and the days, with the samples themselves (returned beside it). The
+    /// state is the whole history's, as the verdict reads it. A report of a long log holds
+    /// only its last days this way (`liftwatch report --days`).
+    ///
+    /// # Errors
+    /// What `history` fails with when it is read ([`crate::sample::History::read`]).
+    pub fn run_from(
+        model: &FittedModel,
+        history: &dyn crate::sample::History,
+        from: f64,
+    ) -> Result<(Self, crate::sample::AlignedSeries)> {
+        // NaN times (a row of a missing sample) are kept: nothing says they are earlier.
+        let kept = |time: f64| time >= from || time.is_nan();
+        let mut series = crate::sample::AlignedSeries {
+            step_s: history.step_s(),
+            samples: Vec::new(),
+        };
+        let mut features = crate::features::Features::default();
+        let mut pinn: Vec<MonitorRow> = Vec::new();
+        let mut threshold: Vec<MonitorRow> = Vec::new();
         let mut usage: Vec<DayUsage> = Vec::new();
-        let mut pinn: Vec<MonitorRow> = Vec::with_capacity(series.len());
-        for s in &series.samples {
-            pinn.extend(m.push(s));
-            // A day is copied when the next begins; outage seconds dated back into a day
-            // already copied are taken again from the state below.
-            let days = &m.state_ref().operation.days;
-            if let (Some(&last), Some(&prev)) = (days.back(), days.iter().rev().nth(1)) {
-                if usage.last().map_or(true, |u| u.day < prev.day) && last.day > prev.day {
-                    usage.push(prev);
+        let mut m = Monitor::new(model, Method::Pinn);
+        let mut t = Monitor::new(model, Method::Threshold);
+        crate::sample::pass(history, |samples| {
+            let samples = samples.inspect(|s| {
+                if kept(s.time) {
+                    series.samples.push(*s);
                 }
+                pinn.extend(m.push(s).filter(|r| kept(r.time)));
+                // A day is copied when the next begins; outage seconds dated back into a day
+                // already copied are taken again from the state below.
+                let days = &m.state_ref().operation.days;
+                if let (Some(&last), Some(&prev)) = (days.back(), days.iter().rev().nth(1)) {
+                    if usage.last().map_or(true, |u| u.day < prev.day) && last.day > prev.day {
+                        usage.push(prev);
+                    }
+                }
+                threshold.extend(t.push(s).filter(|r| kept(r.time)));
+            });
+            for (row, trip) in crate::features::rows(samples, &model.features) {
+                if kept(row.time) {
+                    features.rows.push(row);
+                }
+                features.trips.extend(trip.filter(|t| kept(t.start_time)));
             }
-        }
-        pinn.extend(m.finish());
-        let state = m.state();
-        for d in &state.operation.days {
-            match usage.iter_mut().find(|u| u.day == d.day) {
-                Some(u) => *u = *d,
-                None => usage.push(*d),
-            }
-        }
-        let threshold = run(model, &series.samples, Method::Threshold);
+        })?;
+        pinn.extend(m.finish().into_iter().filter(|r| kept(r.time)));
+        threshold.extend(t.finish().into_iter().filter(|r| kept(r.time)));
         let events = pinn
             .iter()
             .filter_map(|r| r.event.as_deref().copied())
@@ -243,7 +274,16 @@ impl Analysis {
             .iter()
             .filter_map(|r| r.operation.as_deref().copied())
             .collect();
-        Analysis {
+        let state = m.state();
+        for d in &state.operation.days {
+            match usage.iter_mut().find(|u| u.day == d.day) {
+                Some(u) => *u = *d,
+                None => usage.push(*d),
+            }
+        }
+        let first_day = (from / crate::sample::DAY_S).floor();
+        usage.retain(|u| u.day as f64 >= first_day);
+        let analysis = Analysis {
             features,
             pinn,
             threshold,
@@ -251,7 +291,8 @@ impl Analysis {
             state,
             usage,
             operation_events,
-        }
+        };
+        Ok((analysis, series))
     }
 }
 

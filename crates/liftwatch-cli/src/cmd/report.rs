@@ -75,10 +75,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     );
     let input = named(&args.input, false);
     // The input waits on disk beside the report for the one pass that draws its last days.
-    let spill_dir = match args.out.parent() {
-        Some(dir) if !dir.as_os_str().is_empty() => dir.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
+    let spill_dir = spill::parent(&args.out);
     let align = AlignConfig::default().with_step(step)?;
     let (spilled, ingest) = spill::read("report", &args.input, &align, &spill_dir, &ui)
         .with_context(|| format!("cannot read {input}"))?;

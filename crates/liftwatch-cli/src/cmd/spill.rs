@@ -24,10 +24,15 @@ pub fn beside_file(out: &Path) -> PathBuf {
             .parent()
             .map_or_else(std::env::temp_dir, Path::to_path_buf),
         Ok(_) => std::env::temp_dir(),
-        Err(_) => match out.parent() {
-            Some(dir) if !dir.as_os_str().is_empty() => dir.to_path_buf(),
-            _ => PathBuf::from("."),
-        },
+        Err(_) => parent(out),
+    }
+}
+
+/// The directory `out` names its entry in: `.` for a bare name.
+pub fn parent(out: &Path) -> PathBuf {
+    match out.parent() {
+        Some(dir) if !dir.as_os_str().is_empty() => dir.to_path_buf(),
+        _ => PathBuf::from("."),
     }
 }
 

@@ -211,9 +211,9 @@ pub struct Analysis {
 impl Analysis {
     /// Runs the features and both monitors over `series` ([`run`]).
     pub fn run(model: &FittedModel, series: &crate::sample::AlignedSeries) -> Self {
-        let (analysis, _) = Analysis::run_from(model, series, f64::NEG_INFINITY)
-            .unwrap_or_else(|e| unreachable!("a series in memory reads without error: {e}"));
-        analysis
+        // The caller holds the samples: none is copied.
+        Analysis::run_keeping(model, series, f64::NEG_INFINITY, &mut |_| {})
+            .unwrap_or_else(|e| unreachable!("a series in memory reads without error: {e}"))
     }
 
     /// Runs the features and both monitors over `history` in one pass, keeping what a report
@@ -229,12 +229,24 @@ impl Analysis {
         history: &dyn crate::sample::History,
         from: f64,
     ) -> Result<(Self, crate::sample::AlignedSeries)> {
-        // NaN times (a row of a missing sample) are kept: nothing says they are earlier.
-        let kept = |time: f64| time >= from || time.is_nan();
         let mut series = crate::sample::AlignedSeries {
             step_s: history.step_s(),
             samples: Vec::new(),
         };
+        let analysis =
+            Analysis::run_keeping(model, history, from, &mut |s| series.samples.push(*s))?;
+        Ok((analysis, series))
+    }
+
+    /// [`Analysis::run_from`]'s pass, handing each sample it keeps to `keep`.
+    fn run_keeping(
+        model: &FittedModel,
+        history: &dyn crate::sample::History,
+        from: f64,
+        keep: &mut dyn FnMut(&Sample),
+    ) -> Result<Self> {
+        // NaN times (a row of a missing sample) are kept: nothing says they are earlier.
+        let kept = |time: f64| time >= from || time.is_nan();
         let mut features = crate::features::Features::default();
         let mut pinn: Vec<MonitorRow> = Vec::new();
         let mut threshold: Vec<MonitorRow> = Vec::new();
@@ -244,7 +256,7 @@ impl Analysis {
         crate::sample::pass(history, |samples| {
             let samples = samples.inspect(|s| {
                 if kept(s.time) {
-                    series.samples.push(*s);
+                    keep(s);
                 }
                 pinn.extend(m.push(s).filter(|r| kept(r.time)));
                 // A day is copied when the next begins; outage seconds dated back into a day
@@ -283,7 +295,7 @@ impl Analysis {
         }
         let first_day = (from / crate::sample::DAY_S).floor();
         usage.retain(|u| u.day as f64 >= first_day);
-        let analysis = Analysis {
+        Ok(Analysis {
             features,
             pinn,
             threshold,
@@ -291,8 +303,7 @@ impl Analysis {
             state,
             usage,
             operation_events,
-        };
-        Ok((analysis, series))
+        })
     }
 }
 

@@ -32,6 +32,12 @@ pub fn nan() -> f64 {
     f64::NAN
 }
 
+/// Three NaNs: the default of a per-mode array a document written before it was kept lacks
+/// (`#[serde(with = "crate::exact::array", default = "crate::exact::nan_array")]`).
+pub fn nan_array() -> [f64; 3] {
+    [f64::NAN; 3]
+}
+
 /// Writes `x` as its shortest round-trip decimal string.
 ///
 /// # Errors

@@ -933,6 +933,17 @@ impl RecentTrip {
             start,
         }
     }
+
+    /// Adds `sign` (1 or −1) to the count of trips beyond the clip, high, and that times this
+    /// trip's information to their information, along each signature along which it is.
+    fn add_high(&self, high: &mut [f64; N_MODES], high_info: &mut [f64; N_MODES], sign: f64) {
+        for m in 0..N_MODES {
+            if self.clipped[m] < self.score[m] {
+                high[m] += sign;
+                high_info[m] += sign * self.xtx[PACKED_DIAG[m]];
+            }
+        }
+    }
 }
 
 /// Window lengths of the window-limited GLR, in trips (the newest last), each about 1.5
@@ -985,6 +996,15 @@ pub struct GlrSums {
     /// Σ v.
     #[serde(with = "exact::array")]
     pub v: [f64; N_MODES],
+    /// The trips beyond the clip, high, along each signature: a window where they are
+    /// [`CONSISTENT_SHARE`] of its trips, or carry that share of its information, is read at
+    /// its own bound ([`glr`]). NaN in a state saved before it was kept, when it is counted
+    /// anew from the recent trips, as is `high_info`.
+    #[serde(with = "exact::array", default = "crate::exact::nan_array")]
+    pub high: [f64; N_MODES],
+    /// Σ info of those trips.
+    #[serde(with = "exact::array", default = "crate::exact::nan_array")]
+    pub high_info: [f64; N_MODES],
 }
 
 impl GlrSums {
@@ -997,6 +1017,7 @@ impl GlrSums {
             self.w[m] += sign * info;
             self.v[m] += sign * cfg.trip_var_of(m, info);
         }
+        r.add_high(&mut self.high, &mut self.high_info, sign);
     }
 }
 
@@ -1144,6 +1165,15 @@ impl Sequential {
                     w
                 })
             });
+            let lost = |w: &GlrSums| w.high.iter().chain(&w.high_info).any(|h| h.is_nan());
+            if sums.iter().any(lost) {
+                for (l, w) in sums.iter_mut().enumerate() {
+                    (w.high, w.high_info) = ([0.0; N_MODES], [0.0; N_MODES]);
+                    for r in recent.iter().rev().take(GLR_LENGTHS[l]) {
+                        r.add_high(&mut w.high, &mut w.high_info, 1.0);
+                    }
+                }
+            }
             let n = recent.len();
             for (l, w) in sums.iter_mut().enumerate() {
                 w.add(cfg, &trip, 1.0);
@@ -1157,7 +1187,7 @@ impl Sequential {
         }
         self.recent.push_back(trip);
         if let (Some(_), Some(sums)) = (cfg.glr_h, &self.glr_sums) {
-            self.glr = glr(cfg, sums, self.recent.len());
+            self.glr = glr(cfg, sums, &self.recent);
         }
     }
 
@@ -1520,6 +1550,11 @@ fn window_wander(sigma: &[f64; 6], trips: u32) -> [[f64; N_MODES]; N_MODES] {
 ///   z² = S²/(Σ v + f_m·W²)  when S > 0, else 0        Glr: the largest over n, and its n
 /// ```
 ///
+/// A window whose trips beyond the clip are [`CONSISTENT_SHARE`] of its trips, or carry that
+/// share of its information, sums its scores clipped at its own bound instead
+/// (`own_bound_sum`), from the `recent` trips: [`GlrSums::high`] and
+/// [`GlrSums::high_info`], kept with the sums, say which.
+///
 /// Why beside the CUSUMs: a CUSUM of size ν in units of one trip's standard error gains at
 /// most ν·CLIP − ν²/2 a trip, and its threshold is set by the bootstrap's healthy hours,
 /// which wander together: where that wander is a sizeable share of a trip's error, a run of
@@ -1530,17 +1565,27 @@ fn window_wander(sigma: &[f64; 6], trips: u32) -> [[f64; N_MODES]; N_MODES] {
 /// weighs a window against the noise and the wander together, so a change many times the
 /// wander is decided within the shortest window, and its threshold, bootstrapped from the
 /// same hours, is one of z² (of the order of 2·ln of the windows a year).
-pub fn glr(cfg: &SequentialConfig, sums: &[GlrSums; GLR_N], recent: usize) -> [Glr; N_MODES] {
+pub fn glr(
+    cfg: &SequentialConfig,
+    sums: &[GlrSums; GLR_N],
+    recent: &std::collections::VecDeque<RecentTrip>,
+) -> [Glr; N_MODES] {
     let mut out = [Glr::default(); N_MODES];
     for m in 0..N_MODES {
         // The best window as (S², var S, length), compared by cross-multiplication: one
         // division for the mode, not one per window.
         let (mut s2_best, mut v_best, mut n_best) = (0.0, 1.0, 0);
         for (l, win) in sums.iter().enumerate() {
-            if recent < GLR_LENGTHS[l] {
+            let n = GLR_LENGTHS[l];
+            if recent.len() < n {
                 break;
             }
-            let (s, w) = (win.s[m], win.w[m]);
+            let s = if consistent(win.high[m], n as f64) || consistent(win.high_info[m], win.w[m]) {
+                own_bound_sum(cfg, recent, n, m)
+            } else {
+                win.s[m]
+            };
+            let w = win.w[m];
             let v = win.v[m] + cfg.glr_floor(m, l) * w * w;
             let informed = w >= GLR_LENGTHS[0] as f64 * cfg.info[m];
             if informed && s > 0.0 && v > 0.0 && (n_best == 0 || s * s * v_best > s2_best * v) {
@@ -1555,6 +1600,70 @@ pub fn glr(cfg: &SequentialConfig, sums: &[GlrSums; GLR_N], recent: usize) -> [G
         }
     }
     out
+}
+
+/// The share of a GLR window's trips, or of its information, that trips beyond the clip
+/// along a signature must make before the window is read at its own bound
+/// (`own_bound_sum`): three quarters. The clip bounds what a few odd trips can add (the runs
+/// of five to ten odd hops of a busy morning that [`GLR_LENGTHS`] and [`CLIP`] were set
+/// against are at most half of the shortest window's trips, and short hops carry less than
+/// their share of its information), but where nearly every trip shows a change beyond it,
+/// the clip censors the change itself: a Kd step of +25 % on the 1000 kg car, 7 to 13 standard errors on every trip, counted 3 a
+/// trip, and its window of twenty reached its threshold's 1.08 only after all twenty of its
+/// trips, and raised an hour later ([`crate::alarm::GLR_HOLD_S`]). Either share: a brake's
+/// drag shows beyond the clip on the trips that carry its information (8 of 20 trips of the
+/// 40-floor car, 90 % of the information), a Kd step on the 630 kg car's evening trips on 15
+/// of 20 while the window's longer trips from before it held 30 % of the information.
+pub const CONSISTENT_SHARE: (u32, u32) = (3, 4);
+
+/// Whether `part`, the trips of a window beyond the clip or their information, is at least
+/// [`CONSISTENT_SHARE`] of the window's `whole`.
+fn consistent(part: f64, whole: f64) -> bool {
+    let (a, b) = CONSISTENT_SHARE;
+    part * f64::from(b) >= whole * f64::from(a) && whole > 0.0
+}
+
+/// The GLR score of a window of the last `n` of the `recent` trips along signature `m` that
+/// is [`consistent`]: each trip's score clipped to ±B of its own sd, where B is the window's
+/// median standardised score, each trip weighed by its information (at least [`CLIP`], as
+/// three quarters of the information is beyond it): the Huber bound taken from the window,
+/// which no minority of odd trips can move, at the level of the change its majority shows.
+/// The median and not the rank that three quarters reach: a window that has just become
+/// consistent holds the weakest of its changed trips there, which read a step back at the
+/// clip. Healthy windows almost never get here, the bootstrap's draws included, and it runs
+/// the same code.
+fn own_bound_sum(
+    cfg: &SequentialConfig,
+    recent: &std::collections::VecDeque<RecentTrip>,
+    n: usize,
+    m: usize,
+) -> f64 {
+    // Each trip's standardised score u, its sd and its information.
+    let mut trips = [(0.0, 0.0, 0.0); RECENT_TRIPS];
+    for (t, r) in trips.iter_mut().zip(recent.range(recent.len() - n..)) {
+        let info = r.xtx[PACKED_DIAG[m]];
+        let sd = cfg.trip_var_of(m, info).sqrt();
+        *t = (r.score[m] / sd, sd, info);
+    }
+    let trips = &trips[..n];
+    let mut by_score = [(0.0, 0.0, 0.0); RECENT_TRIPS];
+    let by_score = &mut by_score[..n];
+    by_score.copy_from_slice(trips);
+    by_score.sort_unstable_by(|a, b| b.0.total_cmp(&a.0));
+    let half = 0.5 * by_score.iter().map(|t| t.2).sum::<f64>();
+    let mut reached = 0.0;
+    let mut bound = CLIP;
+    for &(u, _, info) in by_score.iter() {
+        reached += info;
+        if reached >= half {
+            bound = u.max(CLIP);
+            break;
+        }
+    }
+    trips
+        .iter()
+        .map(|&(u, sd, _)| u.clamp(-bound, bound) * sd)
+        .sum()
 }
 
 /// uᵀ·A·v for a 3×3 matrix A.
@@ -2240,6 +2349,98 @@ mod tests {
         assert!(
             k_cusum > k + 30,
             "the CUSUMs alone decided after {k_cusum} trips"
+        );
+    }
+
+    /// A GLR threshold of 60, CUSUMs that never decide, and a healthy wander of half a trip's
+    /// standard error (sd 1) along every signature.
+    fn wandering_glr_config() -> SequentialConfig {
+        let mut cfg = unit_config();
+        cfg.h = [[1e9; N_SIZES]; N_MODES];
+        cfg.glr_h = Some([60.0; N_MODES]);
+        cfg.wander = [0.5; N_MODES];
+        cfg
+    }
+
+    /// The first trip (counted from 0) of `run` after 200 healthy ones at which the decision
+    /// crosses under [`wandering_glr_config`], where the clipped window of twenty tops out at
+    /// z² = (20·3)²/(20 + 0.25·20²) = 30: only a window read at its own bound can cross.
+    fn first_crossing(run: &[[f64; N_MODES]]) -> Option<(usize, Decision)> {
+        let cfg = wandering_glr_config();
+        let mut rng = Rng::new(17);
+        let mut seq = Sequential::default();
+        for k in 0..200 {
+            seq.push(&cfg, &trip(f64::from(k), &[0.0; 3], &mut rng), 0.5);
+        }
+        run.iter()
+            .enumerate()
+            .map(|(k, theta)| {
+                (
+                    k,
+                    seq.push(&cfg, &trip(200.0 + k as f64, theta, &mut rng), 0.5),
+                )
+            })
+            .find(|(_, d)| d.ratio >= 1.0)
+    }
+
+    #[test]
+    fn a_step_on_nearly_every_trip_is_read_at_its_own_bound_and_a_run_of_odd_trips_is_not() {
+        // A step of 10 standard errors a trip: once 15 of the shortest window's 20 trips
+        // show it, the window is read at its median (10), far past the threshold and past
+        // twice it, so it raises at once (crate::alarm::GLR_STRONG_RATIO); clipped at 3 it
+        // could never have crossed here.
+        let step = vec![[10.0, 0.0, 0.0]; 40];
+        let (k, d) = first_crossing(&step).expect("the step must be decided");
+        assert!((13..=14).contains(&k), "decided on trip {k}");
+        assert!(d.lead_glr && d.lead_signature == FaultMode::Motor, "{d:?}");
+        assert!(d.ratio >= 2.0, "ratio {}", d.ratio);
+        // Runs of fourteen odd trips of 15 standard errors among healthy ones (a busy
+        // morning's odd hops, longer than any seen): never three quarters of a window, so
+        // each counts 3 and nothing crosses.
+        let odd: Vec<[f64; N_MODES]> = (0..400)
+            .map(|k| [if k % 40 < 14 { 15.0 } else { 0.0 }, 0.0, 0.0])
+            .collect();
+        assert!(first_crossing(&odd).is_none());
+    }
+
+    #[test]
+    fn a_state_without_the_windows_counts_recounts_them_and_decides_alike() {
+        // A state saved before the counts of trips beyond the clip were kept: they are
+        // counted from its recent trips at the next trip, and the GLR is the one the counts
+        // kept all along give, to the bit.
+        let cfg = wandering_glr_config();
+        let mut rng = Rng::new(3);
+        let mut kept = Sequential::default();
+        for k in 0..120 {
+            let level = if k < 90 { 0.0 } else { 6.0 };
+            kept.push(&cfg, &trip(f64::from(k), &[level, 0.0, 0.0], &mut rng), 0.5);
+        }
+        // As a state saved before reads back: the field missing, so NaN.
+        let mut json: serde_json::Value = serde_json::to_value(&kept).expect("serialises");
+        for w in json["glr_sums"].as_array_mut().expect("the sums are kept") {
+            let w = w.as_object_mut().expect("an object");
+            w.remove("high");
+            w.remove("high_info");
+        }
+        let mut recounted: Sequential = serde_json::from_value(json).expect("reads back");
+        assert!(recounted
+            .glr_sums
+            .is_some_and(|s| s[0].high[MOTOR].is_nan()));
+        let t = trip(120.0, &[6.0, 0.0, 0.0], &mut rng);
+        let a = kept.push(&cfg, &t, 0.5);
+        let b = recounted.push(&cfg, &t, 0.5);
+        let high = |s: &Sequential| s.glr_sums.map(|w| w.map(|w| (w.high, w.high_info)));
+        assert_eq!(high(&kept), high(&recounted));
+        assert_eq!(kept.glr, recounted.glr);
+        assert!(
+            a.lead_glr && a.ratio.to_bits() == b.ratio.to_bits(),
+            "{a:?}"
+        );
+        // Every trip of the shortest window is beyond the clip: all its information.
+        let w = kept.glr_sums.expect("kept")[0];
+        assert!(
+            w.high[MOTOR] == 20.0 && (w.high_info[MOTOR] - w.w[MOTOR]).abs() < 1e-9,
+            "{w:?}"
         );
     }
 

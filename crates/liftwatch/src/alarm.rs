@@ -128,6 +128,12 @@ pub struct Evidence {
     /// before it was kept.
     #[serde(default)]
     pub cusum_glr: bool,
+    /// The bound each trip's score was clipped at in that statistic, in standard deviations
+    /// of a trip: 3, or more where the GLR's window read a change that nearly all its trips
+    /// showed at its own median (`risk::sequential::CONSISTENT_SHARE`); 3 in events written
+    /// before it was kept.
+    #[serde(default = "crate::risk::sequential::clip")]
+    pub cusum_bound: f64,
     /// Log-likelihood ratio of the motor signature alone on those trips (the mode is named
     /// when the best of the three leads the runner-up by ln 20 ≈ 3.0; events written before it
     /// was kept read 0).
@@ -183,6 +189,7 @@ impl Evidence {
             cusum_size: a.decision.lead_size,
             cusum_trips: a.decision.window_trips,
             cusum_glr: a.decision.lead_glr,
+            cusum_bound: a.decision.lead_bound,
             llr_motor: a.decision.isolation[MOTOR],
             llr_brake: a.decision.isolation[BRAKE],
             llr_friction: a.decision.isolation[FRICTION],

@@ -830,6 +830,11 @@ pub struct Decision {
     /// Whether the window-limited GLR leads ([`Sequential::glr`]) rather than a CUSUM.
     #[serde(default)]
     pub lead_glr: bool,
+    /// The bound the leading statistic clipped each trip's score at, in standard deviations
+    /// of a trip: [`CLIP`], or the GLR window's own where nearly all its trips showed the
+    /// change ([`Glr::bound`]).
+    #[serde(with = "exact", default = "clip")]
+    pub lead_bound: f64,
     /// The CUSUMs' own largest G/h (`ratio` is the larger of it and the GLR's z²/h); 0 in
     /// decisions saved before it was kept.
     #[serde(with = "exact", default)]
@@ -1030,6 +1035,16 @@ pub struct Glr {
     pub z2: f64,
     /// Its length in trips.
     pub trips: u32,
+    /// The bound its trips' scores were clipped at, in standard deviations of a trip:
+    /// [`CLIP`], or the window's own where nearly all its trips showed the change
+    /// (`own_bound_sum`); [`CLIP`] in a state saved before it was kept.
+    #[serde(with = "exact", default = "clip")]
+    pub bound: f64,
+}
+
+/// [`CLIP`], the default bound of a window saved before its bound was kept.
+pub fn clip() -> f64 {
+    CLIP
 }
 
 impl Sequential {
@@ -1139,6 +1154,7 @@ impl Sequential {
             lead_signature: MACHINE_MODES[signature],
             lead_size: size,
             lead_glr: glr_window.is_some(),
+            lead_bound: glr_window.as_ref().map_or(CLIP, |g| self.glr[g.0].bound),
             cusum_ratio: lead.2,
             isolation_load,
             machine_mode,
@@ -1574,28 +1590,30 @@ pub fn glr(
     for m in 0..N_MODES {
         // The best window as (S², var S, length), compared by cross-multiplication: one
         // division for the mode, not one per window.
-        let (mut s2_best, mut v_best, mut n_best) = (0.0, 1.0, 0);
+        let (mut s2_best, mut v_best, mut n_best, mut b_best) = (0.0, 1.0, 0, CLIP);
         for (l, win) in sums.iter().enumerate() {
             let n = GLR_LENGTHS[l];
             if recent.len() < n {
                 break;
             }
-            let s = if consistent(win.high[m], n as f64) || consistent(win.high_info[m], win.w[m]) {
-                own_bound_sum(cfg, recent, n, m)
-            } else {
-                win.s[m]
-            };
+            let (s, bound) =
+                if consistent(win.high[m], n as f64) || consistent(win.high_info[m], win.w[m]) {
+                    own_bound_sum(cfg, recent, n, m)
+                } else {
+                    (win.s[m], CLIP)
+                };
             let w = win.w[m];
             let v = win.v[m] + cfg.glr_floor(m, l) * w * w;
             let informed = w >= GLR_LENGTHS[0] as f64 * cfg.info[m];
             if informed && s > 0.0 && v > 0.0 && (n_best == 0 || s * s * v_best > s2_best * v) {
-                (s2_best, v_best, n_best) = (s * s, v, GLR_LENGTHS[l]);
+                (s2_best, v_best, n_best, b_best) = (s * s, v, GLR_LENGTHS[l], bound);
             }
         }
         if n_best > 0 {
             out[m] = Glr {
                 z2: s2_best / v_best,
                 trips: n_best as u32,
+                bound: b_best,
             };
         }
     }
@@ -1624,7 +1642,7 @@ fn consistent(part: f64, whole: f64) -> bool {
 }
 
 /// The GLR score of a window of the last `n` of the `recent` trips along signature `m` that
-/// is [`consistent`]: each trip's score clipped to ±B of its own sd, where B is the window's
+/// is [`consistent`], and the bound it was clipped at: each trip's score clipped to ±B of its own sd, where B is the window's
 /// median standardised score, each trip weighed by its information (at least [`CLIP`], as
 /// three quarters of the information is beyond it): the Huber bound taken from the window,
 /// which no minority of odd trips can move, at the level of the change its majority shows.
@@ -1637,7 +1655,7 @@ fn own_bound_sum(
     recent: &std::collections::VecDeque<RecentTrip>,
     n: usize,
     m: usize,
-) -> f64 {
+) -> (f64, f64) {
     // Each trip's standardised score u, its sd and its information.
     let mut trips = [(0.0, 0.0, 0.0); RECENT_TRIPS];
     for (t, r) in trips.iter_mut().zip(recent.range(recent.len() - n..)) {
@@ -1660,10 +1678,11 @@ fn own_bound_sum(
             break;
         }
     }
-    trips
+    let sum = trips
         .iter()
         .map(|&(u, sd, _)| u.clamp(-bound, bound) * sd)
-        .sum()
+        .sum();
+    (sum, bound)
 }
 
 /// uᵀ·A·v for a 3×3 matrix A.
@@ -2394,6 +2413,7 @@ mod tests {
         assert!((13..=14).contains(&k), "decided on trip {k}");
         assert!(d.lead_glr && d.lead_signature == FaultMode::Motor, "{d:?}");
         assert!(d.ratio >= 2.0, "ratio {}", d.ratio);
+        assert!((d.lead_bound - 10.0).abs() < 1.5, "bound {}", d.lead_bound);
         // Runs of fourteen odd trips of 15 standard errors among healthy ones (a busy
         // morning's odd hops, longer than any seen): never three quarters of a window, so
         // each counts 3 and nothing crosses.

@@ -1596,12 +1596,14 @@ pub fn glr(
             if recent.len() < n {
                 break;
             }
-            let (s, bound) =
-                if consistent(win.high[m], n as f64) || consistent(win.high_info[m], win.w[m]) {
-                    own_bound_sum(cfg, recent, n, m)
-                } else {
-                    (win.s[m], CLIP)
-                };
+            // No trip beyond the clip (a healthy window, nearly always): no share to weigh.
+            let own = win.high[m] > 0.0
+                && (consistent(win.high[m], n as f64) || consistent(win.high_info[m], win.w[m]));
+            let (s, bound) = if own {
+                own_bound_sum(cfg, recent, n, m)
+            } else {
+                (win.s[m], CLIP)
+            };
             let w = win.w[m];
             let v = win.v[m] + cfg.glr_floor(m, l) * w * w;
             let informed = w >= GLR_LENGTHS[0] as f64 * cfg.info[m];

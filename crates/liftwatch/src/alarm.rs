@@ -131,7 +131,7 @@ pub struct Evidence {
     /// The bound each trip's score was clipped at in that statistic, in standard deviations
     /// of a trip: 3, or more where the GLR's window read a change that nearly all its trips
     /// showed at its own median (`risk::sequential::CONSISTENT_SHARE`); 3 in events written
-    /// before it was kept.
+    /// before it was kept, 0 in one raised before any trip was weighed (a sensor's).
     #[serde(default = "crate::risk::sequential::clip")]
     pub cusum_bound: f64,
     /// Log-likelihood ratio of the motor signature alone on those trips (the mode is named

@@ -1608,7 +1608,7 @@ pub fn glr(
             let v = win.v[m] + cfg.glr_floor(m, l) * w * w;
             let informed = w >= GLR_LENGTHS[0] as f64 * cfg.info[m];
             if informed && s > 0.0 && v > 0.0 && (n_best == 0 || s * s * v_best > s2_best * v) {
-                (s2_best, v_best, n_best, b_best) = (s * s, v, GLR_LENGTHS[l], bound);
+                (s2_best, v_best, n_best, b_best) = (s * s, v, n, bound);
             }
         }
         if n_best > 0 {
@@ -1628,9 +1628,10 @@ pub fn glr(
 /// of five to ten odd hops of a busy morning that [`GLR_LENGTHS`] and [`CLIP`] were set
 /// against are at most half of the shortest window's trips, and short hops carry less than
 /// their share of its information), but where nearly every trip shows a change beyond it,
-/// the clip censors the change itself: a Kd step of +25 % on the 1000 kg car, 7 to 13 standard errors on every trip, counted 3 a
-/// trip, and its window of twenty reached its threshold's 1.08 only after all twenty of its
-/// trips, and raised an hour later ([`crate::alarm::GLR_HOLD_S`]). Either share: a brake's
+/// the clip censors the change itself: a Kd step of +25 % on the 1000 kg car, 7 to 13
+/// standard errors on every trip, counted 3 a trip, and its window of twenty reached its
+/// threshold's 1.08 only after all twenty of its trips, and raised an hour later
+/// ([`crate::alarm::GLR_HOLD_S`]). Either share: a brake's
 /// drag shows beyond the clip on the trips that carry its information (8 of 20 trips of the
 /// 40-floor car, 90 % of the information), a Kd step on the 630 kg car's evening trips on 15
 /// of 20 while the window's longer trips from before it held 30 % of the information.
@@ -1644,14 +1645,14 @@ fn consistent(part: f64, whole: f64) -> bool {
 }
 
 /// The GLR score of a window of the last `n` of the `recent` trips along signature `m` that
-/// is [`consistent`], and the bound it was clipped at: each trip's score clipped to ±B of its own sd, where B is the window's
-/// median standardised score, each trip weighed by its information (at least [`CLIP`], as
-/// three quarters of the information is beyond it): the Huber bound taken from the window,
-/// which no minority of odd trips can move, at the level of the change its majority shows.
-/// The median and not the rank that three quarters reach: a window that has just become
-/// consistent holds the weakest of its changed trips there, which read a step back at the
-/// clip. Healthy windows almost never get here, the bootstrap's draws included, and it runs
-/// the same code.
+/// is [`consistent`], and the bound it was clipped at: each trip's score clipped to ±B of
+/// its own sd, where B is the window's median standardised score, each trip weighed by its
+/// information (at least [`CLIP`], as three quarters of it is beyond that): the Huber bound
+/// taken from the window, which no minority of odd trips can move, at the level of the
+/// change its majority shows. The median and not the rank that three quarters reach: a
+/// window that has just become consistent holds the weakest of its changed trips there,
+/// which read a step back at the clip. Healthy windows almost never get here, the
+/// bootstrap's draws included, and it runs the same code.
 fn own_bound_sum(
     cfg: &SequentialConfig,
     recent: &std::collections::VecDeque<RecentTrip>,

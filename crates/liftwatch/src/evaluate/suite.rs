@@ -38,6 +38,9 @@ pub const SHORT_TRAINING_START_H: f64 = 7.0;
 /// simulator's office building is in service and a stopped car is missed, as it would be on
 /// the days an owner asks about. A car stopped at night is an outage the traffic cannot tell
 /// from a quiet night until the morning, which measures the traffic, not the monitor.
+/// The stuck speed sensor's hour is due then too ([`service_hour`]): a reading frozen at rest
+/// is a fault only once the car moves, and the hour it once had, from the onset at midnight,
+/// saw the 1000 kg car of seed 3 stand still throughout (no method can miss a fault better).
 pub const OUTAGE_START_H: f64 = 10.0;
 /// How long an outage case's car stays out of service: 4 h, a maintenance visit or a car
 /// switched off for the morning (long enough for the office's mid-morning traffic to miss it).
@@ -241,7 +244,7 @@ pub fn cases(cfg: &SuiteConfig, fleet: &[FleetElevator]) -> Result<Vec<Case>> {
         let mut sensors = vec![(
             "stuck-speed",
             SensorFault::StuckSpeed {
-                onset_s: onset,
+                onset_s: service_hour(onset),
                 duration_s: HOUR_S,
             },
         )];
@@ -262,6 +265,7 @@ pub fn cases(cfg: &SuiteConfig, fleet: &[FleetElevator]) -> Result<Vec<Case>> {
             ));
         }
         for (name, f) in sensors {
+            let onset = f.onset_s();
             out.push(Case {
                 name: format!("{} sensor {name}", fe.name),
                 elevator: ei,
@@ -310,6 +314,21 @@ pub fn cases(cfg: &SuiteConfig, fleet: &[FleetElevator]) -> Result<Vec<Case>> {
 /// follows as much monitoring as they do), lasting [`OUT_OF_SERVICE_S`] or [`STUCK_S`]; `None`
 /// when the run ends less than [`AFTER_OUTAGE_S`] after it (no outage case then).
 pub fn outage_plan(kind: OutageKind, onset: f64, span: f64) -> Option<OutagePlan> {
+    let duration_s = match kind {
+        OutageKind::OutOfService => OUT_OF_SERVICE_S,
+        OutageKind::StuckBetweenFloors => STUCK_S,
+    };
+    let start_s = service_hour(onset);
+    (start_s + duration_s + AFTER_OUTAGE_S <= span).then_some(OutagePlan {
+        kind,
+        start_s,
+        duration_s,
+    })
+}
+
+/// The first [`OUTAGE_START_H`] of a weekday at or after `onset` (s): when an outage case's
+/// outage and the stuck speed sensor's hour are due.
+pub fn service_hour(onset: f64) -> f64 {
     let at = OUTAGE_START_H * HOUR_S;
     // Day 0 of a run is a Monday (`SimConfig::start_s`): days 5 and 6 of each week are its
     // weekend.
@@ -317,16 +336,7 @@ pub fn outage_plan(kind: OutageKind, onset: f64, span: f64) -> Option<OutagePlan
     while day.rem_euclid(7.0) >= 5.0 {
         day += 1.0;
     }
-    let duration_s = match kind {
-        OutageKind::OutOfService => OUT_OF_SERVICE_S,
-        OutageKind::StuckBetweenFloors => STUCK_S,
-    };
-    let start_s = day * DAY_S + at;
-    (start_s + duration_s + AFTER_OUTAGE_S <= span).then_some(OutagePlan {
-        kind,
-        start_s,
-        duration_s,
-    })
+    day * DAY_S + at
 }
 
 /// An outage kind as a case name has it.
@@ -566,6 +576,18 @@ mod tests {
             .map(|c| c.name)
             .collect();
         assert_eq!(names, ["E2 outage stuck"]);
+        // The stuck speed sensor's hour is due then too, and the case's onset is that hour's
+        // (the default suite's onset is day 10, a Thursday, at midnight).
+        let stuck = cases(&SuiteConfig::new(1, false), &fleet(true))
+            .unwrap()
+            .into_iter()
+            .find(|c| c.name.ends_with("sensor stuck-speed"))
+            .unwrap();
+        assert_eq!(stuck.onset_days, Some(10.0 + ten));
+        assert_eq!(
+            stuck.sensor_fault.as_ref().map(SensorFault::onset_s),
+            Some((10.0 + ten) * DAY_S)
+        );
     }
 
     /// `--only` keeps the named cases as the whole suite has them (their elevator's place in

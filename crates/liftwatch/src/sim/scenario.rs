@@ -344,6 +344,15 @@ impl SensorFault {
         }
     }
 
+    /// When the fault begins (s).
+    pub fn onset_s(&self) -> f64 {
+        match *self {
+            SensorFault::LoadDrift { onset_s, .. }
+            | SensorFault::StuckSpeed { onset_s, .. }
+            | SensorFault::VoltageOffset { onset_s, .. } => onset_s,
+        }
+    }
+
     /// The channel the fault breaks.
     pub fn channel(&self) -> Signal {
         match self {

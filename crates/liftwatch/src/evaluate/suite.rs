@@ -40,7 +40,7 @@ pub const SHORT_TRAINING_START_H: f64 = 7.0;
 /// from a quiet night until the morning, which measures the traffic, not the monitor.
 /// The stuck speed sensor's hour is due then too ([`service_hour`]): a reading frozen at rest
 /// is a fault only once the car moves, and the hour it once had, from the onset at midnight,
-/// saw the 1000 kg car of seed 3 stand still throughout (no method can miss a fault better).
+/// saw the 1000 kg car of seed 3 stand still throughout, a fault no method could have seen.
 pub const OUTAGE_START_H: f64 = 10.0;
 /// How long an outage case's car stays out of service: 4 h, a maintenance visit or a car
 /// switched off for the morning (long enough for the office's mid-morning traffic to miss it).

@@ -236,7 +236,7 @@ fn short_training_notes(report: &CalibrationReport, risk: &RiskConfig) -> Vec<St
         ));
     }
     notes.push(format!(
-        "it cannot promise its alarm budget of {} per elevator-year: days unlike these (weekends, other seasons' temperatures, other traffic) were never seen; refit on {ENOUGH_TRAINING_DAYS:.0} days or more of healthy data",
+        "it cannot promise its alarm budget of {} per elevator-year: days unlike these (weekends, runs of days that sit at another level, other seasons' temperatures, other traffic) were never seen; refit on {ENOUGH_TRAINING_DAYS:.0} days or more of healthy data",
         report.target_text()
     ));
     notes

@@ -139,10 +139,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         plant: Some(plant),
         ..run_cfg.with_mode(args.scenario.mode())
     };
+    // Progress by the command line's one rule (`ui`): refreshed on a terminal, and nothing
+    // in a log file, where each day's `\r` line once piled up on one line.
+    let ui = super::ui::Ui::new(super::ui::UiArgs::default(), &[])?;
     let truth = write_dir(&run_cfg, &run_dir, &mut |d| {
-        eprint!("\r  day {d:.0} of {}   ", args.days)
+        ui.progress(format_args!("  day {d:.0} of {}", args.days));
     })?;
-    eprintln!();
+    ui.progress_done();
 
     step(
         started,

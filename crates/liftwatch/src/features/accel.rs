@@ -46,7 +46,7 @@ impl FeatureConfig {
 /// a_v of the held sample `c`: the central difference over its neighbours `p` and `n` (both
 /// contiguous and with a known velocity), one-sided when one is missing; NaN without either
 /// or without a velocity of `c`.
-pub(super) fn speed_path(p: Option<Pre>, c: &Pre, n: Option<Pre>) -> f64 {
+pub(super) fn speed_path(p: Option<&Pre>, c: &Pre, n: Option<&Pre>) -> f64 {
     if !c.v.is_finite() {
         return f64::NAN;
     }

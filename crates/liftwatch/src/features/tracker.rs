@@ -121,7 +121,10 @@ impl FeatureTracker {
         }
         let held = self.cur;
         if let Some(c) = held {
-            self.row_into(self.prev, c, Some(next), out);
+            // `next` by reference: it was just stored field by field, and a copy of it (as a
+            // by-value argument) read it back in 16-byte pieces, a store-forwarding stall.
+            let prev = self.prev;
+            self.row_into(prev.as_ref(), &c, Some(&next), out);
         }
         self.prev = self.cur;
         self.cur = Some(next);
@@ -136,7 +139,8 @@ impl FeatureTracker {
             .cur
             .map(|c| {
                 let mut row = FeatureRow::MISSING;
-                self.row_into(self.prev, c, None, &mut row);
+                let prev = self.prev;
+                self.row_into(prev.as_ref(), &c, None, &mut row);
                 row
             })
             .into_iter()
@@ -292,16 +296,16 @@ impl FeatureTracker {
     }
 
     /// The row of the held sample `c` from its neighbours; advances the trip segmentation.
-    fn row_into(&mut self, p: Option<Pre>, c: Pre, n: Option<Pre>, out: &mut FeatureRow) {
-        let p = p.filter(|p| follows(p, &c) && p.v.is_finite());
-        let n = n.filter(|n| follows(&c, n));
-        let a_v = accel::speed_path(p, &c, n.filter(|n| n.v.is_finite()));
-        let trip = self.advance_trip(p, &c, n);
+    fn row_into(&mut self, p: Option<&Pre>, c: &Pre, n: Option<&Pre>, out: &mut FeatureRow) {
+        let p = p.filter(|p| follows(p, c) && p.v.is_finite());
+        let n = n.filter(|n| follows(c, n));
+        let a_v = accel::speed_path(p, c, n.filter(|n| n.v.is_finite()));
+        let trip = self.advance_trip(p, c, n);
         let held_ref = trip.as_ref().map_or(f64::NAN, |t| t.l_ref);
-        let lambda = self.lambda(&c, held_ref);
-        let a_l = accel::load_path(&self.cfg, &c, held_ref, lambda);
-        let phase = accel::phase(&c, a_v);
-        let a = accel::fuse(&self.cfg, &c, phase, lambda, a_v, a_l);
+        let lambda = self.lambda(c, held_ref);
+        let a_l = accel::load_path(&self.cfg, c, held_ref, lambda);
+        let phase = accel::phase(c, a_v);
+        let a = accel::fuse(&self.cfg, c, phase, lambda, a_v, a_l);
         let (d2v, d2u) = match (p, n) {
             (Some(p), Some(n)) => (
                 p.v - 2.0 * c.v + n.v,

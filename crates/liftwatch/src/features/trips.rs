@@ -106,9 +106,9 @@ impl FeatureTracker {
     /// Returns the trip `c` belongs to (its state after `c`).
     pub(super) fn advance_trip(
         &mut self,
-        p: Option<Pre>,
+        p: Option<&Pre>,
         c: &Pre,
-        n: Option<Pre>,
+        n: Option<&Pre>,
     ) -> Option<TripAcc> {
         if c.s == 0 {
             // Only reachable after a gap dropped the look-ahead; nothing to continue.
@@ -117,7 +117,7 @@ impl FeatureTracker {
         }
         let speed = c.v.abs();
         if self.trip.is_none() {
-            let p = p.filter(Pre::at_rest)?;
+            let p = p.filter(|p| p.at_rest())?;
             self.trip = Some(TripAcc {
                 index: self.next_trip,
                 start_time: c.time,
@@ -154,7 +154,7 @@ impl FeatureTracker {
         let snapshot = t.clone();
         match n {
             Some(n) if n.at_rest() => {
-                self.ended = Some(t.end(c, &n));
+                self.ended = Some(t.end(c, n));
                 self.trip = None;
             }
             Some(n) if n.v.is_finite() => {}

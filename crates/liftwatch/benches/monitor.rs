@@ -96,6 +96,27 @@ fn step_on_files(model: &str, input: &str) {
         samples.len(),
         100.0 * moving / n
     );
+    // What a sample at rest costs of the step: the file's samples at rest alone, renumbered
+    // onto one unbroken grid, so that the car stands through the whole run (door cycles, load
+    // changes and the rest of a stop's life kept, the trips taken out).
+    let step = align.step_s;
+    let t0 = samples.first().map_or(0.0, |x| x.time);
+    let rest: Vec<Sample> = samples
+        .iter()
+        .filter(|x| x.speed.abs() <= model.features.moving_threshold_mps)
+        .enumerate()
+        .map(|(i, x)| Sample {
+            time: t0 + i as f64 * step,
+            ..*x
+        })
+        .collect();
+    let rest_secs = step_secs(&model, Method::Pinn, &rest);
+    println!(
+        "monitor step at rest alone: {:.0} ns/sample ({} samples, {:.2} of the whole file's)",
+        rest_secs / rest.len().max(1) as f64 * 1e9,
+        rest.len(),
+        (rest_secs / rest.len().max(1) as f64) / (secs / n)
+    );
 }
 
 fn main() {

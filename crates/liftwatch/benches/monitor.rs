@@ -9,8 +9,9 @@
 //! two simulated days of a 1000 kg, 1.75 m/s, 26-floor elevator (seed 1).
 //!
 //! With `MONITOR_BENCH_MODEL=model.json MONITOR_BENCH_INPUT=aligned.csv` it times the step of
-//! that model on that file instead (read into memory first) and prints one line: what
-//! `bench/compare.py --infer` sets beside PyTorch's batched inference on the same samples.
+//! that model on that file instead (read into memory first) and prints two lines: the step on
+//! the whole file, what `bench/compare.py --infer` sets beside PyTorch's batched inference on
+//! the same samples, and the step on the file's samples at rest alone.
 
 use std::hint::black_box;
 use std::path::Path;

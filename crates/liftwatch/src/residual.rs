@@ -125,6 +125,9 @@ pub struct PredictionCache {
     /// output; empty until the first standstill sample (a cache that never sees one, as in
     /// the fit's per-trip sums, allocates nothing).
     rest: Vec<Option<(u64, [f64; 2])>>,
+    /// The bits of the last floor reading and the elevator's floors, with the reading's
+    /// relative height ([`crate::model::PhysParams::relative_height`]).
+    height: Option<((u64, u32), f64)>,
 }
 
 /// What [`PredictionCache`] keys its last output by: the bits of λ's grid steps at rest,
@@ -168,7 +171,17 @@ impl PredictionCache {
             };
             (self.key, self.du, self.df) = (Some(key), du, df);
         }
-        model.predict_with(x, [self.du, self.df])
+        // The floor's relative height, kept while the floor reading holds (a division a row).
+        let key = (x.floor.to_bits(), model.elevator.floors);
+        let q = match self.height {
+            Some((k, q)) if k == key => q,
+            _ => {
+                let q = crate::model::PhysParams::relative_height(x.floor, key.1);
+                self.height = Some((key, q));
+                q
+            }
+        };
+        model.predict_at(x, q, [self.du, self.df])
     }
 
     /// The network's output at (+0, λ, +0) for λ of `steps` grid steps, from the table or by

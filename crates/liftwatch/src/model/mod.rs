@@ -62,10 +62,17 @@ pub struct HybridModel {
 impl HybridModel {
     /// Predicts voltage and force for one feature row, with the network's correction
     /// `[δU, δF]` already evaluated for the row's inputs, and the force implied by its voltage.
-    pub fn predict_with(&self, x: &FeatureRow, [du, df]: [f64; 2]) -> Prediction {
+    pub fn predict_with(&self, x: &FeatureRow, du_df: [f64; 2]) -> Prediction {
+        let q = PhysParams::relative_height(x.floor, self.elevator.floors);
+        self.predict_at(x, q, du_df)
+    }
+
+    /// [`HybridModel::predict_with`] with the relative height `q` of the row's floor given
+    /// ([`PhysParams::relative_height`] of `x.floor`; a caller that keeps it between rows
+    /// spares its division).
+    pub fn predict_at(&self, x: &FeatureRow, q: f64, [du, df]: [f64; 2]) -> Prediction {
         let p = &self.parameters;
         let m_r = self.elevator.rated_load_kg;
-        let q = PhysParams::relative_height(x.floor, self.elevator.floors);
         let f_phys = p.force(x.s, x.v, x.lambda, x.a, q, m_r);
         Prediction {
             u_pred: p.voltage(x.s, x.v, f_phys) + du,

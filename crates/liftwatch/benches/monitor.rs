@@ -10,8 +10,8 @@
 //!
 //! With `MONITOR_BENCH_MODEL=model.json MONITOR_BENCH_INPUT=aligned.csv` it times the step of
 //! that model on that file instead (read into memory first) and prints two lines: the step on
-//! the whole file, what `bench/compare.py --infer` sets beside PyTorch's batched inference on
-//! the same samples, and the step on the file's samples at rest alone.
+//! the whole file (what `bench/compare.py --infer` sets beside PyTorch's batched inference on
+//! the same samples), then the step on the file's samples at rest alone.
 
 use std::hint::black_box;
 use std::path::Path;
@@ -111,12 +111,11 @@ fn step_on_files(model: &str, input: &str) {
             ..*x
         })
         .collect();
-    let rest_secs = step_secs(&model, Method::Pinn, &rest);
+    let rest_ns = step_secs(&model, Method::Pinn, &rest) / rest.len().max(1) as f64 * 1e9;
     println!(
-        "monitor step at rest alone: {:.0} ns/sample ({} samples, {:.2} of the whole file's)",
-        rest_secs / rest.len().max(1) as f64 * 1e9,
+        "monitor step at rest alone: {rest_ns:.0} ns/sample ({} samples, {:.2} of the whole file's)",
         rest.len(),
-        (rest_secs / rest.len().max(1) as f64) / (secs / n)
+        rest_ns / (secs / n * 1e9)
     );
 }
 

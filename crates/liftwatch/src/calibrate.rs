@@ -365,8 +365,8 @@ pub fn calibrate(
         hours.ambient = UNSEEN_AMBIENT_SWING;
     }
     let mut rng = Rng::new(settings.seed);
-    let (max_r, max_modes, max_g, max_glr) =
-        bootstrap_maxima(&cfg, &trips, settings.block_s, total, &mut rng, &hours);
+    let draws = Draws::new(&cfg, &trips, settings.block_s, total, &hours);
+    let (max_r, max_modes, max_g, max_glr) = bootstrap_maxima(&cfg, &draws, &mut rng);
     if let Some(seq) = &mut cfg.sequential {
         // Floors for a bootstrap too short to show the tail: a CUSUM's G exceeds h about
         // once in e^h trips per statistic, a one-sided z² beyond h once in e^(h/2) windows.
@@ -389,7 +389,8 @@ pub fn calibrate(
         cfg.advisory_modes[m] = max_modes[m].max(floor);
     }
     let mut rng = Rng::new(settings.seed ^ 0x5EED_CA11_B4A7_E000);
-    let episodes = bootstrap_episodes(&cfg, &trips, settings.block_s, total, &mut rng, &hours);
+    let draws = Draws::new(&cfg, &trips, settings.block_s, total, &hours);
+    let episodes = bootstrap_episodes(&cfg, &draws, &mut rng);
     let report = CalibrationReport {
         trips: trips.len(),
         hours: span_s / HOUR_S,
@@ -1185,101 +1186,188 @@ impl HourWander {
     }
 }
 
-/// A moving-block bootstrap of `total` trips of the record `trips`, each handed to `f` prepared
-/// for a tracker of `cfg` ([`PreparedTrip`]: formed once per trip of the record, not per
-/// draw), with the level its hour of service was drawn ([`HourWander`]) when the training
-/// measured any.
-fn bootstrap(
-    cfg: &RiskConfig,
-    trips: &[TripEvidence],
+/// What a bootstrap draws from: the record's trips, each prepared for a tracker of one
+/// [`RiskConfig`] ([`PreparedTrip`]: formed once per trip of the record, not per draw), and
+/// the settings of the draw.
+struct Draws<'a> {
+    trips: &'a [TripEvidence],
+    prepared: Vec<PreparedTrip<'a>>,
     block_s: f64,
     total: u64,
+    hours: &'a HourWander,
+}
+
+impl<'a> Draws<'a> {
+    fn new(
+        cfg: &RiskConfig,
+        trips: &'a [TripEvidence],
+        block_s: f64,
+        total: u64,
+        hours: &'a HourWander,
+    ) -> Self {
+        Draws {
+            trips,
+            prepared: trips.iter().map(|t| PreparedTrip::new(cfg, t)).collect(),
+            block_s,
+            total,
+            hours,
+        }
+    }
+
+    /// A moving-block bootstrap of `total` trips of the record, each handed to `f` prepared,
+    /// with the level its hour of service was drawn ([`HourWander`]) when the training
+    /// measured any. The whole sequence is fixed by `rng`: a clone of it draws it again.
+    fn run(&self, rng: &mut Rng, mut f: impl FnMut(&PreparedTrip, Option<&[f64; N_MODES]>)) {
+        let (trips, hours) = (self.trips, self.hours);
+        let total = usize::try_from(self.total).unwrap_or(usize::MAX);
+        let hour_of: Vec<f64> = trips.iter().map(|t| (t.start / HOUR_S).floor()).collect();
+        let ends = |first: usize, i: usize| trips[i].start - trips[first].start >= self.block_s;
+        let mut draw = rng.fork();
+        let mut cell: Option<(usize, f64)> = None;
+        let mut offset = [0.0; N_MODES];
+        let mut ambient = 0.0;
+        moving_blocks(rng, trips.len(), BlockStart::Anywhere, total, ends, |i| {
+            if hours.is_zero() {
+                f(&self.prepared[i], None);
+                return;
+            }
+            // A new block is a new place on the unseen daily cycle; a new hour of service (or
+            // a new block) a new hour's level.
+            let new_block = cell.map_or(true, |(j, _)| i != j + 1);
+            if new_block {
+                ambient = hours.draw_ambient(&mut draw);
+            }
+            let hour = hour_of[i];
+            if new_block || cell.is_some_and(|(_, h)| h != hour) {
+                offset = hours.draw(&mut draw);
+                offset[MOTOR_MODE] += ambient;
+            }
+            cell = Some((i, hour));
+            f(&self.prepared[i], Some(&offset));
+        });
+    }
+}
+
+/// Runs `risk` on this thread and `decision` on a second one, each over the same bootstrap
+/// sequence (a clone of `rng` draws it again on the second thread; `rng` ends where one run
+/// leaves it). The tracker's two halves share no state
+/// ([`RiskTracker::push_risk_levels`]), so the results are the bits of one thread taking
+/// both, at about the time of the longer half: the bootstraps were two thirds of a 3-hour
+/// `fit`, the decision's CUSUMs and GLR windows the larger half of them.
+fn side_by_side<R, D: Send>(
     rng: &mut Rng,
-    hours: &HourWander,
-    mut f: impl FnMut(&PreparedTrip, Option<&[f64; N_MODES]>),
-) {
-    let total = usize::try_from(total).unwrap_or(usize::MAX);
-    let prepared: Vec<PreparedTrip> = trips.iter().map(|t| PreparedTrip::new(cfg, t)).collect();
-    let hour_of: Vec<f64> = trips.iter().map(|t| (t.start / HOUR_S).floor()).collect();
-    let ends = |first: usize, i: usize| trips[i].start - trips[first].start >= block_s;
-    let mut draw = rng.fork();
-    let mut cell: Option<(usize, f64)> = None;
-    let mut offset = [0.0; N_MODES];
-    let mut ambient = 0.0;
-    moving_blocks(rng, trips.len(), BlockStart::Anywhere, total, ends, |i| {
-        if hours.is_zero() {
-            f(&prepared[i], None);
-            return;
-        }
-        // A new block is a new place on the unseen daily cycle; a new hour of service (or a
-        // new block) a new hour's level.
-        let new_block = cell.map_or(true, |(j, _)| i != j + 1);
-        if new_block {
-            ambient = hours.draw_ambient(&mut draw);
-        }
-        let hour = hour_of[i];
-        if new_block || cell.is_some_and(|(_, h)| h != hour) {
-            offset = hours.draw(&mut draw);
-            offset[MOTOR_MODE] += ambient;
-        }
-        cell = Some((i, hour));
-        f(&prepared[i], Some(&offset));
-    });
+    risk: impl FnOnce(&mut Rng) -> R,
+    decision: impl FnOnce(&mut Rng) -> D + Send,
+) -> (R, D) {
+    let mut again = rng.clone();
+    std::thread::scope(|scope| {
+        let other = scope.spawn(move || decision(&mut again));
+        let r = risk(rng);
+        let d = other
+            .join()
+            .unwrap_or_else(|panic| std::panic::resume_unwind(panic));
+        (r, d)
+    })
 }
 
 fn bootstrap_maxima(
     cfg: &RiskConfig,
-    trips: &[TripEvidence],
-    block_s: f64,
-    total: u64,
+    draws: &Draws,
     rng: &mut Rng,
-    hours: &HourWander,
 ) -> (
     f64,
     [f64; N_MODES],
     [[f64; N_SIZES]; N_MODES],
     [f64; N_MODES],
 ) {
-    let mut tracker = RiskTracker::new(cfg);
-    let (mut max_r, mut max_m) = (0.0f64, [0.0f64; N_MODES]);
-    let mut max_g = [[0.0f64; N_SIZES]; N_MODES];
-    let mut max_glr = [0.0f64; N_MODES];
-    bootstrap(cfg, trips, block_s, total, rng, hours, |t, offset| {
-        let a = tracker.push_levels(cfg, t, offset);
-        max_r = max_r.max(a.risk);
-        let g = tracker.cusum_g();
-        let z2 = tracker.glr_z2();
-        for m in 0..N_MODES {
-            max_glr[m] = max_glr[m].max(z2[m]);
-            max_m[m] = max_m[m].max(a.risk_modes[m]);
-            for j in 0..N_SIZES {
-                max_g[m][j] = max_g[m][j].max(g[m][j]);
-            }
-        }
-    });
+    let ((max_r, max_m), (max_g, max_glr)) = side_by_side(
+        rng,
+        |rng| {
+            let mut tracker = RiskTracker::new(cfg);
+            let (mut max_r, mut max_m) = (0.0f64, [0.0f64; N_MODES]);
+            draws.run(rng, |t, offset| {
+                let (r, modes) = tracker.push_risk_levels(cfg, t, offset);
+                max_r = max_r.max(r);
+                for m in 0..N_MODES {
+                    max_m[m] = max_m[m].max(modes[m]);
+                }
+            });
+            (max_r, max_m)
+        },
+        |rng| {
+            let mut tracker = RiskTracker::new(cfg);
+            let mut max_g = [[0.0f64; N_SIZES]; N_MODES];
+            let mut max_glr = [0.0f64; N_MODES];
+            draws.run(rng, |t, offset| {
+                tracker.push_decision_levels(cfg, t, offset);
+                let g = tracker.cusum_g();
+                let z2 = tracker.glr_z2();
+                for m in 0..N_MODES {
+                    max_glr[m] = max_glr[m].max(z2[m]);
+                    for j in 0..N_SIZES {
+                        max_g[m][j] = max_g[m][j].max(g[m][j]);
+                    }
+                }
+            });
+            (max_g, max_glr)
+        },
+    );
     (max_r, max_m, max_g, max_glr)
 }
 
-/// Advisory episodes (with the hysteresis of [`crate::alarm`]) over a bootstrap run.
-fn bootstrap_episodes(
-    cfg: &RiskConfig,
-    trips: &[TripEvidence],
-    block_s: f64,
-    total: u64,
-    rng: &mut Rng,
-    hours: &HourWander,
-) -> u64 {
-    let mut tracker = RiskTracker::new(cfg);
-    let mut alarm = AlarmState::default();
-    let mut episodes = 0;
-    bootstrap(cfg, trips, block_s, total, rng, hours, |t, offset| {
-        let a = tracker.push_levels(cfg, t, offset);
-        let before = alarm.machine_level();
-        alarm.update_machine(a.risk, a.ratio, cfg);
-        if before == Level::Normal && alarm.machine_level() != Level::Normal {
-            episodes += 1;
-        }
-    });
+/// The decision's ratios of a bootstrap run, handed over in batches of this many trips
+/// (64 KiB each) from the thread that forms them to the one that pairs them with R.
+const RATIO_BATCH: usize = 8192;
+
+/// Batches of ratios formed and not yet taken: the decision's thread runs at most this far
+/// ahead of R's.
+const RATIOS_IN_FLIGHT: usize = 4;
+
+/// Advisory episodes (with the hysteresis of [`crate::alarm`]) over a bootstrap run: R on
+/// this thread, the decision's ratio on a second, each trip's two paired in order.
+fn bootstrap_episodes(cfg: &RiskConfig, draws: &Draws, rng: &mut Rng) -> u64 {
+    let (to_risk, ratios) = std::sync::mpsc::sync_channel::<Vec<f64>>(RATIOS_IN_FLIGHT);
+    let (episodes, ()) = side_by_side(
+        rng,
+        // Both closures own their end of the channel: whichever side stops early (a panic)
+        // drops it, and the other finds it gone instead of waiting on it.
+        move |rng| {
+            let mut tracker = RiskTracker::new(cfg);
+            let mut alarm = AlarmState::default();
+            let mut episodes = 0;
+            let mut batch = Vec::new().into_iter();
+            draws.run(rng, |t, offset| {
+                let (risk, _) = tracker.push_risk_levels(cfg, t, offset);
+                let ratio = batch.next().unwrap_or_else(|| {
+                    // Both threads draw the same trips, so a batch ends only where another
+                    // follows (the decision's thread ended otherwise: a panic, resumed below).
+                    batch = ratios.recv().unwrap_or_default().into_iter();
+                    batch.next().unwrap_or(f64::NAN)
+                });
+                let before = alarm.machine_level();
+                alarm.update_machine(risk, ratio, cfg);
+                if before == Level::Normal && alarm.machine_level() != Level::Normal {
+                    episodes += 1;
+                }
+            });
+            episodes
+        },
+        move |rng| {
+            let mut tracker = RiskTracker::new(cfg);
+            let mut batch = Vec::with_capacity(RATIO_BATCH);
+            let mut receiving = true;
+            draws.run(rng, |t, offset| {
+                batch.push(tracker.push_decision_levels(cfg, t, offset));
+                if batch.len() == RATIO_BATCH && receiving {
+                    let full = std::mem::replace(&mut batch, Vec::with_capacity(RATIO_BATCH));
+                    receiving = to_risk.send(full).is_ok();
+                }
+            });
+            if receiving && !batch.is_empty() {
+                let _ = to_risk.send(batch);
+            }
+        },
+    );
     episodes
 }
 
@@ -1723,11 +1811,12 @@ mod tests {
 
     #[test]
     fn the_bootstraps_levels_are_the_full_steps_to_the_bit() {
-        // The bootstraps take R, G and the ratio from `push_levels`, which skips the
-        // decision's windows, isolation and drifts and takes each trip prepared once, its
-        // hour's level added as it is drawn: on healthy days and through a step that crosses
-        // the CUSUMs, each of them must be the full step's, bit for bit, whether the trip is
-        // taken as it is or moved by an hour's level.
+        // The bootstraps take R from `push_risk_levels` and G and the ratio from
+        // `push_decision_levels`, each on a tracker of its own (side by side on two threads),
+        // which skip the decision's windows, isolation and drifts and take each trip prepared
+        // once, its hour's level added as it is drawn: on healthy days and through a step that
+        // crosses the CUSUMs, each of them must be the full step's, bit for bit, whether the
+        // trip is taken as it is or moved by an hour's level.
         let m = test_model();
         let cfg = calibrated(&m).risk;
         let k = 1.0 * m.scales.sigma_u_v;
@@ -1741,26 +1830,90 @@ mod tests {
             t
         };
         for shift in [None, Some(&offset)] {
-            let (mut full, mut levels) = (RiskTracker::new(&cfg), RiskTracker::new(&cfg));
+            let mut full = RiskTracker::new(&cfg);
+            let (mut risks, mut decisions) = (RiskTracker::new(&cfg), RiskTracker::new(&cfg));
             let mut crossed = false;
             for t in &trips {
                 let t = cfg.winding.take_out(t);
                 let a = full.push(&cfg, &shift.map_or_else(|| t.clone(), |o| moved(&t, o)));
-                let l = levels.push_levels(&cfg, &PreparedTrip::new(&cfg, &t), shift);
+                let p = PreparedTrip::new(&cfg, &t);
+                let (risk, risk_modes) = risks.push_risk_levels(&cfg, &p, shift);
+                let ratio = decisions.push_decision_levels(&cfg, &p, shift);
                 crossed |= a.decision.ratio >= 1.0;
-                assert_eq!(a.risk.to_bits(), l.risk.to_bits());
-                assert_eq!(
-                    a.risk_modes.map(f64::to_bits),
-                    l.risk_modes.map(f64::to_bits)
-                );
-                assert_eq!(a.decision.ratio.to_bits(), l.ratio.to_bits());
+                assert_eq!(a.risk.to_bits(), risk.to_bits());
+                assert_eq!(a.risk_modes.map(f64::to_bits), risk_modes.map(f64::to_bits));
+                assert_eq!(a.decision.ratio.to_bits(), ratio.to_bits());
                 let g = |t: &RiskTracker| t.cusum_g().map(|row| row.map(f64::to_bits));
-                assert_eq!(g(&full), g(&levels));
+                assert_eq!(g(&full), g(&decisions));
                 let z2 = |t: &RiskTracker| t.glr_z2().map(f64::to_bits);
-                assert_eq!(z2(&full), z2(&levels));
+                assert_eq!(z2(&full), z2(&decisions));
             }
             assert!(crossed, "the step never crossed a CUSUM");
         }
+    }
+
+    #[test]
+    fn the_bootstraps_side_by_side_are_one_thread_to_the_bit() {
+        // The two bootstraps run the tracker's halves on two threads over one drawn sequence
+        // each; one thread taking both halves must give the same maxima and episodes, bit for
+        // bit. The thresholds are lowered so that the run holds episodes, and the run is long
+        // enough that the episodes' pairing of R with the ratio crosses several batches.
+        let m = test_model();
+        let mut cfg = calibrated(&m).risk;
+        cfg.advisory *= 0.05;
+        cfg.alarm *= 0.05;
+        if let Some(seq) = &mut cfg.sequential {
+            for row in &mut seq.h {
+                for h in row {
+                    *h *= 0.3;
+                }
+            }
+        }
+        let trips: Vec<TripEvidence> = synthetic_trips(&m, 8, 3.0, 0.0, &|_, _| 0.0)
+            .iter()
+            .map(|t| cfg.winding.take_out(t))
+            .collect();
+        let hours = HourWander::measure(cfg.sequential.as_ref().unwrap(), &trips);
+        assert!(!hours.is_zero(), "the hours' levels are drawn too");
+        let total = 3 * RATIO_BATCH as u64 + 17;
+        let draws = Draws::new(&cfg, &trips, DAY_S, total, &hours);
+
+        let mut tracker = RiskTracker::new(&cfg);
+        let mut alarm = AlarmState::default();
+        let (mut episodes, mut max_r, mut max_g, mut max_glr) =
+            (0, 0.0f64, [[0.0f64; N_SIZES]; N_MODES], [0.0f64; N_MODES]);
+        let mut taken = 0;
+        draws.run(&mut Rng::new(5), |t, offset| {
+            let (risk, _) = tracker.push_risk_levels(&cfg, t, offset);
+            let ratio = tracker.push_decision_levels(&cfg, t, offset);
+            max_r = max_r.max(risk);
+            let (g, z2) = (tracker.cusum_g(), tracker.glr_z2());
+            for m in 0..N_MODES {
+                max_glr[m] = max_glr[m].max(z2[m]);
+                for j in 0..N_SIZES {
+                    max_g[m][j] = max_g[m][j].max(g[m][j]);
+                }
+            }
+            let before = alarm.machine_level();
+            alarm.update_machine(risk, ratio, &cfg);
+            if before == Level::Normal && alarm.machine_level() != Level::Normal {
+                episodes += 1;
+            }
+            taken += 1;
+        });
+        assert_eq!(taken, total);
+        assert!(
+            episodes > 1,
+            "{episodes} episodes: the pairing is not tested"
+        );
+        let (r2, _, g2, glr2) = bootstrap_maxima(&cfg, &draws, &mut Rng::new(5));
+        assert_eq!(max_r.to_bits(), r2.to_bits());
+        assert_eq!(
+            max_g.map(|row| row.map(f64::to_bits)),
+            g2.map(|row| row.map(f64::to_bits))
+        );
+        assert_eq!(max_glr.map(f64::to_bits), glr2.map(f64::to_bits));
+        assert_eq!(episodes, bootstrap_episodes(&cfg, &draws, &mut Rng::new(5)));
     }
 
     #[test]

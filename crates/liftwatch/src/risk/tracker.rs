@@ -174,7 +174,7 @@ impl TripLens {
 /// A healthy trip as the calibration's bootstraps take it, thousands of times over: what no
 /// tracker state changes, formed once per trip of the record ([`TripLens`], the decision's
 /// [`TripWeights`], whether it is usable). Each draw may move the trip's score by an hour's
-/// level ([`RiskTracker::push_levels`]); its x·xᵀ, and so all of this, stays.
+/// level ([`RiskTracker::push_risk_levels`]); its x·xᵀ, and so all of this, stays.
 pub(crate) struct PreparedTrip<'a> {
     trip: &'a TripEvidence,
     usable: bool,
@@ -231,17 +231,6 @@ pub struct TripAssessment {
     /// The sequential decision ([`super::sequential`]); all zero without one.
     #[serde(default)]
     pub decision: Decision,
-}
-
-/// What the calibration's bootstraps read of a trip ([`RiskTracker::push_levels`]).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub(crate) struct RiskLevels {
-    /// Combined risk R.
-    pub(crate) risk: f64,
-    /// Per-mode risks (motor, brake, friction).
-    pub(crate) risk_modes: [f64; N_MODES],
-    /// The sequential decision's max G/h (0 without one).
-    pub(crate) ratio: f64,
 }
 
 /// θ̂ of the regression as the last trip left it: the next trip's prediction error needs
@@ -375,32 +364,45 @@ impl RiskTracker {
         self.last
     }
 
-    /// Takes one prepared trip as [`RiskTracker::push`] does, its signature levels moved by
-    /// `offset` when one is given ([`PreparedTrip`]), but advances the sequential decision's
-    /// G alone ([`Sequential::advance_g`]): what the calibration's bootstraps read, the risks,
-    /// the decision's ratio and G. The decision's mode, windows and drifts are not formed, so
-    /// the latest assessment holds only its ratio of them; a tracker taken this way is not one
-    /// whose decisions are read (its CUSUMs' windows stay empty).
-    pub(crate) fn push_levels(
+    /// What the calibration's bootstraps read of one prepared trip, in two halves: this one
+    /// takes it as [`RiskTracker::push`] does for the risks, its signature levels moved by
+    /// `offset` when one is given ([`PreparedTrip`]), and returns R and the per-mode risks
+    /// after it; [`RiskTracker::push_decision_levels`] takes it for the decision. The two
+    /// halves share no state, so a tracker taking one half and another the other hold the
+    /// bits of [`RiskTracker::push`] (the calibration runs them side by side on two threads).
+    /// A tracker taken this way is not one whose decisions are read.
+    pub(crate) fn push_risk_levels(
         &mut self,
         cfg: &RiskConfig,
         p: &PreparedTrip,
         offset: Option<&[f64; N_MODES]>,
-    ) -> RiskLevels {
-        debug_assert_eq!(cfg.sequential.is_some(), p.weights.is_some());
+    ) -> (f64, [f64; N_MODES]) {
         if p.usable {
             let xtr = p.xtr(offset);
             let s = self.statistics_of(cfg, &p.trip.xtx, &xtr, p.trip.rr, p.lens);
             self.accumulate(cfg, &s);
+        }
+        (self.last.risk, self.last.risk_modes)
+    }
+
+    /// The decision's half of [`RiskTracker::push_risk_levels`]: advances the sequential
+    /// decision's G and GLR windows alone ([`Sequential::advance_g`]; read them with
+    /// [`RiskTracker::cusum_g`] and [`RiskTracker::glr_z2`]) and returns its ratio. The
+    /// decision's mode, windows and drifts are not formed (its CUSUMs' windows stay empty).
+    pub(crate) fn push_decision_levels(
+        &mut self,
+        cfg: &RiskConfig,
+        p: &PreparedTrip,
+        offset: Option<&[f64; N_MODES]>,
+    ) -> f64 {
+        debug_assert_eq!(cfg.sequential.is_some(), p.weights.is_some());
+        if p.usable {
             if let (Some(seq), Some(w)) = (&cfg.sequential, &p.weights) {
+                let xtr = p.xtr(offset);
                 self.last.decision.ratio = self.seq.advance_g(seq, &xtr, &p.trip.xtx, w);
             }
         }
-        RiskLevels {
-            risk: self.last.risk,
-            risk_modes: self.last.risk_modes,
-            ratio: self.last.decision.ratio,
-        }
+        self.last.decision.ratio
     }
 
     /// The accumulated risks of one usable trip's statistics, into the latest assessment.

@@ -142,6 +142,22 @@ pub fn fit_with(
             observed.rest_voltage_v
         ));
     }
+    // A friction drift's per cent is of F_c + c·v_r as the fit split them
+    // (crate::risk::DriftScale); where the prior made that split, the newtons are the figure
+    // the data stand behind (a 1275 kg car with its drive off at rest: a base of 1,625 N
+    // against a true 345 N, so +4.6 % stood for a true +12.5 %, its 75 ± 35 N for a true 43).
+    let guessed: Vec<&str> = summary
+        .parameters
+        .iter()
+        .filter(|p| !p.determined && (p.name == "f_c" || p.name == "c_visc"))
+        .map(|p| p.name.as_str())
+        .collect();
+    if !guessed.is_empty() {
+        summary.warnings.push(format!(
+            "friction drifts in per cent (friction_drift_pct) are of F_c + c·v at the rated speed, and {} came mostly from the prior: read a friction change in newtons (the events' friction_drift_n)",
+            guessed.join(" and ")
+        ));
+    }
     // What the observations hold (a copy of the moving rows' inputs) goes before the passes.
     drop(observed);
     let hybrid = HybridModel {

@@ -71,6 +71,19 @@ fn a_drive_off_at_rest_with_a_constant_k_cell_keeps_its_parameters_and_its_quiet
         m.summary.standstill_samples, 0,
         "standstill samples do not show U0"
     );
+    // The prior split the intercept's friction between F_c and c, so the fit says that a
+    // friction drift in per cent is of that split, and to read it in newtons.
+    let guessed = m
+        .summary
+        .parameters
+        .iter()
+        .any(|r| !r.determined && (r.name == "f_c" || r.name == "c_visc"));
+    let said = m
+        .summary
+        .warnings
+        .iter()
+        .any(|w| w.contains("friction_drift_pct") && w.contains("friction_drift_n"));
+    assert!(guessed && said, "{:?}", m.summary.warnings);
     // U0 from the moving intercept, within three of its standard errors (it was 0.77 V
     // against 8.6 V when the standstill pinned it); F_c, which shares that intercept, within
     // two of its own (it was 8.2 times the truth, "determined" at ±13 N).

@@ -388,8 +388,8 @@ pub fn calibrate(
     for m in 0..N_MODES {
         cfg.advisory_modes[m] = max_modes[m].max(floor);
     }
+    // The trips prepared for the first bootstrap serve the second: only thresholds changed.
     let mut rng = Rng::new(settings.seed ^ 0x5EED_CA11_B4A7_E000);
-    let draws = Draws::new(&cfg, &trips, settings.block_s, total, &hours);
     let episodes = bootstrap_episodes(&cfg, &draws, &mut rng);
     let report = CalibrationReport {
         trips: trips.len(),
@@ -1187,11 +1187,13 @@ impl HourWander {
 }
 
 /// What a bootstrap draws from: the record's trips, each prepared for a tracker of one
-/// [`RiskConfig`] ([`PreparedTrip`]: formed once per trip of the record, not per draw), and
-/// the settings of the draw.
+/// [`RiskConfig`] ([`PreparedTrip`]: formed once per trip of the record, not per draw, and
+/// still valid once the calibration has set the thresholds), the clock hour each began in,
+/// and the settings of the draw.
 struct Draws<'a> {
     trips: &'a [TripEvidence],
     prepared: Vec<PreparedTrip<'a>>,
+    hour_of: Vec<f64>,
     block_s: f64,
     total: u64,
     hours: &'a HourWander,
@@ -1208,6 +1210,7 @@ impl<'a> Draws<'a> {
         Draws {
             trips,
             prepared: trips.iter().map(|t| PreparedTrip::new(cfg, t)).collect(),
+            hour_of: trips.iter().map(|t| (t.start / HOUR_S).floor()).collect(),
             block_s,
             total,
             hours,
@@ -1220,7 +1223,6 @@ impl<'a> Draws<'a> {
     fn run(&self, rng: &mut Rng, mut f: impl FnMut(&PreparedTrip, Option<&[f64; N_MODES]>)) {
         let (trips, hours) = (self.trips, self.hours);
         let total = usize::try_from(self.total).unwrap_or(usize::MAX);
-        let hour_of: Vec<f64> = trips.iter().map(|t| (t.start / HOUR_S).floor()).collect();
         let ends = |first: usize, i: usize| trips[i].start - trips[first].start >= self.block_s;
         let mut draw = rng.fork();
         let mut cell: Option<(usize, f64)> = None;
@@ -1237,7 +1239,7 @@ impl<'a> Draws<'a> {
             if new_block {
                 ambient = hours.draw_ambient(&mut draw);
             }
-            let hour = hour_of[i];
+            let hour = self.hour_of[i];
             if new_block || cell.is_some_and(|(_, h)| h != hour) {
                 offset = hours.draw(&mut draw);
                 offset[MOTOR_MODE] += ambient;

@@ -21,12 +21,14 @@ use std::time::{Duration, Instant};
 /// Pause before a failed batch is sent again.
 const RETRY_PAUSE: Duration = Duration::from_millis(500);
 
-/// Attempts per batch before replay gives up: at [`RETRY_PAUSE`] about a minute of a server
-/// being away (a restart) is ridden out.
-const MAX_ATTEMPTS: u32 = 120;
+/// How long replay keeps sending a failed batch again, from its first failure: a server
+/// being away for a restart is ridden out; one that stays away ends the run within about a
+/// minute and [`REQUEST_TIMEOUT`].
+const RETRY_WINDOW: Duration = Duration::from_secs(60);
 
-/// How long one request may take before it counts as failed.
-const REQUEST_TIMEOUT: Duration = Duration::from_secs(60);
+/// How long one request may take before it counts as failed: a batch of ten seconds of log
+/// is accepted in milliseconds, so a server silent this long is stuck, not busy.
+const REQUEST_TIMEOUT: Duration = Duration::from_secs(15);
 
 /// Largest response read (bytes): the server's answers are small JSON objects.
 const MAX_RESPONSE_BYTES: usize = 1 << 20;
@@ -125,7 +127,15 @@ impl HttpSender {
             head.push_str(&format!("Authorization: Bearer {t}\r\n"));
         }
         head.push_str("\r\n");
-        let io = |e: std::io::Error| SendError::Retry(format!("connection: {e}"));
+        let io = |e: std::io::Error| {
+            SendError::Retry(match e.kind() {
+                // A read or write timeout shows as either kind, depending on the platform.
+                std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut => {
+                    format!("no answer within {} s", REQUEST_TIMEOUT.as_secs())
+                }
+                _ => format!("connection: {e}"),
+            })
+        };
         let r = self.connect()?;
         let s = r.get_mut();
         s.write_all(head.as_bytes()).map_err(io)?;
@@ -182,6 +192,17 @@ impl Sender for HttpSender {
             }
         };
         let v: serde_json::Value = serde_json::from_str(&body).unwrap_or_default();
+        // The server's own words on one line: its JSON `error`, else its body, else a note.
+        let words: Vec<&str> = v["error"]
+            .as_str()
+            .unwrap_or(&body)
+            .split_whitespace()
+            .collect();
+        let said = if words.is_empty() {
+            "(no body)".to_string()
+        } else {
+            words.join(" ")
+        };
         match status {
             200..=299 => Ok(SendReply {
                 accepted: v["accepted"].as_u64().unwrap_or(0),
@@ -190,15 +211,9 @@ impl Sender for HttpSender {
             }),
             429 | 500..=599 => {
                 self.conn = None;
-                Err(SendError::Retry(format!(
-                    "HTTP {status}: {}",
-                    v["error"].as_str().unwrap_or(&body)
-                )))
+                Err(SendError::Retry(format!("HTTP {status}: {said}")))
             }
-            _ => Err(SendError::Fatal(format!(
-                "HTTP {status}: {}",
-                v["error"].as_str().unwrap_or(&body)
-            ))),
+            _ => Err(SendError::Fatal(format!("HTTP {status}: {said}"))),
         }
     }
 }
@@ -289,6 +304,7 @@ pub fn replay(
         let mut body = b"time,signal,value\n".to_vec();
         body.extend_from_slice(batch);
         let mut attempt = 0;
+        let mut failing_since = None;
         loop {
             attempt += 1;
             match sender.send(id, &body) {
@@ -298,7 +314,9 @@ pub fn replay(
                     break;
                 }
                 Err(SendError::Fatal(e)) => return Err(format!("batch {}: {e}", sum.batches + 1)),
-                Err(SendError::Retry(e)) if attempt < MAX_ATTEMPTS => {
+                Err(SendError::Retry(e))
+                    if failing_since.get_or_insert_with(Instant::now).elapsed() < RETRY_WINDOW =>
+                {
                     sum.retries += 1;
                     if opts.progress || attempt == 1 {
                         eprintln!(
@@ -310,8 +328,9 @@ pub fn replay(
                 }
                 Err(SendError::Retry(e)) => {
                     return Err(format!(
-                        "batch {}: {e}, {attempt} attempts",
-                        sum.batches + 1
+                        "batch {}: {e} ({attempt} attempts over {} s)",
+                        sum.batches + 1,
+                        RETRY_WINDOW.as_secs()
                     ))
                 }
             }
@@ -416,5 +435,48 @@ impl Sender for MqttSender {
             bad: 0,
             seq: 0,
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::io::Read;
+    use std::net::TcpListener;
+
+    /// A loopback server that answers one request with `answer` and stops.
+    fn answer_once(answer: &'static str) -> String {
+        let listener = TcpListener::bind("127.0.0.1:0").expect("a loopback port");
+        let addr = listener.local_addr().expect("bound").to_string();
+        std::thread::spawn(move || {
+            if let Ok((mut s, _)) = listener.accept() {
+                let mut buf = [0u8; 4096];
+                let _ = s.read(&mut buf);
+                let _ = s.write_all(answer.as_bytes());
+            }
+        });
+        addr
+    }
+
+    #[test]
+    fn a_refusal_is_one_line_with_the_servers_words_or_a_note_that_it_said_none() {
+        let cases = [
+            (
+                "HTTP/1.1 400 Bad Request\r\nContent-Length: 10\r\n\r\nbad\nthing\n",
+                "HTTP 400: bad thing",
+            ),
+            (
+                "HTTP/1.1 401 Unauthorized\r\nContent-Length: 0\r\n\r\n",
+                "HTTP 401: (no body)",
+            ),
+        ];
+        for (answer, said) in cases {
+            let addr = answer_once(answer);
+            let mut sender = sender_for(&format!("http://{addr}"), None).expect("an http sender");
+            match sender.send("e1", b"time,signal,value\n") {
+                Err(SendError::Fatal(e)) => assert_eq!(e, said),
+                other => panic!("{other:?}"),
+            }
+        }
     }
 }

@@ -453,16 +453,30 @@ impl<'a> FileArg<'a> {
     }
 }
 
-/// Refuses a command whose outputs name one of its inputs or each other (after following
-/// symbolic links and `..`): `--input X --out X` would replace the input, `--state` equal to
-/// `--out` would lose the state. Devices and FIFOs may repeat (`/dev/null` twice is fine).
+/// Refuses a command, before it reads or writes anything, whose outputs could not be written
+/// where they are named or name one of its inputs or each other (after following symbolic
+/// links and `..`): an output in a directory that does not exist would fail only at the end,
+/// after the others were written (`--state` is written last); `--input X --out X` would
+/// replace the input, `--state` equal to `--out` would lose the state. Devices and FIFOs may
+/// repeat (`/dev/null` twice is fine).
 ///
 /// `-` is standard input for an input and standard output for an output; one of each at
 /// most.
 ///
 /// # Errors
-/// A one-line message naming both flags.
-pub fn check_distinct(args: &[FileArg]) -> std::result::Result<(), String> {
+/// A one-line message naming the flag (both flags for a clash).
+pub fn check_file_args(args: &[FileArg]) -> std::result::Result<(), String> {
+    for a in args.iter().filter(|a| a.output && !is_stdio(a.path)) {
+        let dir = parent(&resolve(a.path)).to_path_buf();
+        if !dir.is_dir() {
+            return Err(format!(
+                "{} {}: the directory {} does not exist",
+                a.flag,
+                a.path.display(),
+                dir.display()
+            ));
+        }
+    }
     for output in [false, true] {
         let mut dashes = args
             .iter()
@@ -705,29 +719,39 @@ mod tests {
     }
 
     #[test]
-    fn an_output_naming_an_input_or_another_output_is_refused() {
+    fn an_output_naming_an_input_or_another_output_or_a_missing_directory_is_refused() {
         let dir = scratch("output-distinct");
         let input = dir.join("in.csv");
         std::fs::write(&input, "x").unwrap();
         let arg = |flag, path, output| FileArg { flag, path, output };
         let same = dir.join("sub/../in.csv");
         std::fs::create_dir_all(dir.join("sub")).unwrap();
-        let err = check_distinct(&[arg("--input", &input, false), arg("--out", &same, true)])
+        let err = check_file_args(&[arg("--input", &input, false), arg("--out", &same, true)])
             .unwrap_err();
         assert!(err.contains("--input and --out"), "{err}");
         let out = dir.join("out.csv");
-        assert!(check_distinct(&[arg("--out", &out, true), arg("--state", &out, true)]).is_err());
-        assert!(check_distinct(&[arg("--input", &input, false), arg("--out", &out, true)]).is_ok());
+        assert!(check_file_args(&[arg("--out", &out, true), arg("--state", &out, true)]).is_err());
+        assert!(
+            check_file_args(&[arg("--input", &input, false), arg("--out", &out, true)]).is_ok()
+        );
         let null = Path::new("/dev/null");
-        assert!(check_distinct(&[arg("--out", null, true), arg("--events", null, true)]).is_ok());
+        assert!(check_file_args(&[arg("--out", null, true), arg("--events", null, true)]).is_ok());
         // Two inputs may be the same file.
-        assert!(check_distinct(&[arg("--a", &input, false), arg("--b", &input, false)]).is_ok());
+        assert!(check_file_args(&[arg("--a", &input, false), arg("--b", &input, false)]).is_ok());
         let dash = Path::new("-");
-        assert!(check_distinct(&[arg("--input", dash, false), arg("--out", dash, true)]).is_ok());
+        assert!(check_file_args(&[arg("--input", dash, false), arg("--out", dash, true)]).is_ok());
         let err =
-            check_distinct(&[arg("--out", dash, true), arg("--events", dash, true)]).unwrap_err();
+            check_file_args(&[arg("--out", dash, true), arg("--events", dash, true)]).unwrap_err();
         assert!(err.contains("--out and --events are both `-`"), "{err}");
-        assert!(check_distinct(&[arg("--a", dash, false), arg("--b", dash, false)]).is_err());
+        assert!(check_file_args(&[arg("--a", dash, false), arg("--b", dash, false)]).is_err());
+        // An output whose directory is missing is refused by its flag, the inputs not looked at.
+        let lost = dir.join("nodir/state.json");
+        let err =
+            check_file_args(&[arg("--out", &out, true), arg("--state", &lost, true)]).unwrap_err();
+        assert!(
+            err.starts_with("--state ") && err.ends_with("nodir does not exist"),
+            "{err}"
+        );
     }
 
     #[test]

@@ -10,7 +10,7 @@ use std::path::PathBuf;
 
 use anyhow::Context as _;
 use liftwatch::align::{align_file_pipelined, AlignConfig, AlignedFileSink};
-use liftwatch::output::{check_distinct, FileArg};
+use liftwatch::output::{check_file_args, FileArg};
 
 use super::ui::{ingest_json, named, warn, Ui, UiArgs};
 
@@ -46,7 +46,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .with_step(args.step)
         .and_then(|c| c.with_gap_limit(args.gap_limit))
         .and_then(|c| c.with_reorder_window(args.reorder_window))?;
-    check_distinct(&[
+    check_file_args(&[
         FileArg::input("--input", &args.input),
         FileArg::output("--out", &args.out),
     ])

@@ -62,10 +62,13 @@ pub enum OptimizerArg {
     Adam,
 }
 
+/// What a fit that fails or ends in an impossible model most often means.
+const UNITS_HINT: &str = "check that each channel is in DATA.md's units (speed m/s, voltage V, load % of the rated load) and not empty";
+
 /// Runs `fit`.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let ui = Ui::new(args.ui, &[("--out", &args.out)])?;
-    liftwatch::output::check_distinct(&[
+    liftwatch::output::check_file_args(&[
         liftwatch::output::FileArg::input("--input", &args.input),
         liftwatch::output::FileArg::input("--elevator", &args.elevator),
         liftwatch::output::FileArg::output("--out", &args.out),
@@ -113,10 +116,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         ));
     };
     let outcome = fit::fit_with(&series, &elevator, &cfg, &calibration, &mut progress)
-        .with_context(|| format!("fitting {input}"))?;
+        .with_context(|| format!("fitting {input} ({UNITS_HINT})"))?;
     ui.progress_done();
     let seconds = started.elapsed().as_secs_f64();
-    file::save(&args.out, &outcome.model)?;
+    file::save(&args.out, &outcome.model).map_err(|e| match e {
+        // The checks every model is saved through: a fit that ends outside them was fed
+        // something other than an elevator's channels in their units.
+        liftwatch::Error::BadDocument { why, .. } => anyhow::anyhow!(
+            "fitting {input} gave no model a monitor could use ({why}): {UNITS_HINT}"
+        ),
+        e => e.into(),
+    })?;
     let out = named(&args.out, true);
     ui.say(summary(&outcome.model, outcome.trips.len(), seconds));
     ui.say(format_args!("wrote {out}"));

@@ -27,7 +27,7 @@ use liftwatch::fit::FittedModel;
 use liftwatch::monitor::{
     Method, Monitor, MonitorRow, MonitorState, RowWriter, TimeFormat, TripRowWriter,
 };
-use liftwatch::output::{check_distinct, AtomicFile, FileArg};
+use liftwatch::output::{check_file_args, AtomicFile, FileArg};
 use liftwatch::Sample;
 
 use super::step::{check_input_step, model_step};
@@ -175,7 +175,12 @@ struct Sink<'a> {
     skip_covered: bool,
     samples: u64,
     skipped: u64,
+    /// The rows' and the events' files as messages name them.
+    names: (String, String),
+    /// Event lines written to `--events` (0 without it).
     events_written: u64,
+    /// Events the run raised, written or not: what the summary line counts.
+    events_raised: u64,
     /// The highest level of the run, the resumed level included.
     highest: Level,
     ui: Ui,
@@ -204,20 +209,24 @@ impl Rows {
 }
 
 impl Sink<'_> {
-    fn write(&mut self, r: &MonitorRow) -> std::io::Result<()> {
+    /// Writes the row and its events; an error names the file it could not write.
+    fn write(&mut self, r: &MonitorRow) -> anyhow::Result<()> {
         match &mut self.rows {
-            Rows::Second(w) => w.write(r)?,
-            Rows::Trip(w) => w.write(r)?,
-            Rows::File(_) | Rows::Gone => {}
+            Rows::Second(w) => w.write(r),
+            Rows::Trip(w) => w.write(r),
+            Rows::File(_) | Rows::Gone => Ok(()),
         }
+        .with_context(|| format!("cannot write {}", self.names.0))?;
         self.highest = self.highest.max(r.level);
         if let Some(e) = &r.event {
             let line = self.monitor.event_line(e);
-            self.write_event(&line, e.time)?;
+            self.write_event(&line, e.time)
+                .with_context(|| format!("cannot write {}", self.names.1))?;
         }
         if let Some(e) = &r.operation {
             let line = self.monitor.operation_event_line(e);
-            self.write_event(&line, e.time())?;
+            self.write_event(&line, e.time())
+                .with_context(|| format!("cannot write {}", self.names.1))?;
         }
         Ok(())
     }
@@ -225,6 +234,7 @@ impl Sink<'_> {
     /// One event line with the elevator's name and id (and the time in RFC 3339 under
     /// `--time-format rfc3339`) appended.
     fn write_event(&mut self, line: &str, time: f64) -> std::io::Result<()> {
+        self.events_raised += 1;
         let Some(f) = &mut self.events else {
             return Ok(());
         };
@@ -285,6 +295,7 @@ impl SampleSink for Sink<'_> {
         self.samples = 0;
         self.skipped = 0;
         self.events_written = 0;
+        self.events_raised = 0;
         self.highest = self.monitor.state_ref().level();
         Ok(())
     }
@@ -319,7 +330,7 @@ impl SampleSink for Sink<'_> {
         }
         let mut row = MonitorRow::EMPTY;
         if self.monitor.push_into(sample, &mut row) {
-            self.write(&row).context("cannot write the outputs")?;
+            self.write(&row)?;
         }
         Ok(())
     }
@@ -375,7 +386,7 @@ pub fn run(args: Args) -> anyhow::Result<Status> {
         );
     }
     let ui = Ui::new(args.ui, &outputs)?;
-    check_distinct(&files).map_err(anyhow::Error::msg)?;
+    check_file_args(&files).map_err(anyhow::Error::msg)?;
     let model = file::load(&args.model).context("cannot use the model")?;
     let (step, note) = model_step(&model, args.step)?;
     if let Some(n) = note {
@@ -415,7 +426,14 @@ pub fn run(args: Args) -> anyhow::Result<Status> {
         skip_covered: args.skip_covered,
         samples: 0,
         skipped: 0,
+        names: (
+            named(&args.out, true),
+            args.events
+                .as_deref()
+                .map_or_else(String::new, |p| named(p, true)),
+        ),
         events_written: 0,
+        events_raised: 0,
         highest: Level::Normal,
         ui,
     };
@@ -427,7 +445,7 @@ pub fn run(args: Args) -> anyhow::Result<Status> {
     }
     if args.state.is_none() {
         for row in sink.monitor.finish() {
-            sink.write(&row).with_context(|| cannot_write(&args.out))?;
+            sink.write(&row)?;
         }
     }
     commit(&args, &mut sink)?;
@@ -448,7 +466,8 @@ fn commit(args: &Args, sink: &mut Sink) -> anyhow::Result<()> {
         .with_context(|| format!("cannot write {out}"))?;
     fault_point("after-rows");
     if let Some(f) = sink.events.take() {
-        f.commit().context("cannot write the events")?;
+        f.commit()
+            .with_context(|| format!("cannot write {}", sink.names.1))?;
     }
     fault_point("after-events");
     if let Some(p) = &args.state {
@@ -480,7 +499,7 @@ fn summarise(
         st.implausible_trips,
         st.level(),
         sink.highest,
-        sink.events_written,
+        sink.events_raised,
         args.method.name()
     ));
     let e = &sink.model.hybrid.elevator;
@@ -500,6 +519,7 @@ fn summarise(
         "final_level": st.level().as_str(),
         "highest_level": sink.highest.as_str(),
         "events_written": sink.events_written,
+        "events_raised": sink.events_raised,
         "exit_status": status.code(),
     }))
 }

@@ -62,7 +62,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         FileArg::input("--input", &args.input),
         FileArg::output("--out", &args.out),
     ];
-    liftwatch::output::check_distinct(&files).map_err(anyhow::Error::msg)?;
+    liftwatch::output::check_file_args(&files).map_err(anyhow::Error::msg)?;
     let model = file::load(&args.model).context("cannot use the model")?;
     let (step, note) = model_step(&model, args.step)?;
     if let Some(n) = note {

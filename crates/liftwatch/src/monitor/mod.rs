@@ -419,6 +419,8 @@ impl MonitorState {
             what: "monitor state",
             why,
         };
+        // A byte-order mark, as an editor on Windows saves JSON, is not the document's.
+        let text = text.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(text);
         let v: serde_json::Value = serde_json::from_slice(text).map_err(|e| bad(e.to_string()))?;
         let version = v.get("format_version").and_then(serde_json::Value::as_u64);
         if version != Some(u64::from(STATE_VERSION)) {
@@ -433,10 +435,14 @@ impl MonitorState {
             )));
         }
         let state: MonitorState = serde_json::from_value(v).map_err(|e| bad(e.to_string()))?;
-        if state.samples > 0 && !state.last_time.is_finite() {
+        let in_range = (-crate::ingest::MAX_ABS_TIME_S..=crate::ingest::MAX_ABS_TIME_S)
+            .contains(&state.last_time);
+        if state.samples > 0 && !in_range {
             return Err(bad(format!(
-                "last_time is {} after {} samples: the time the state covers is lost (edited or corrupted?)",
-                state.last_time, state.samples
+                "last_time is {} after {} samples, where no input time lies (|t| ≤ {:e} s): the time the state covers is lost (edited or corrupted?)",
+                state.last_time,
+                state.samples,
+                crate::ingest::MAX_ABS_TIME_S
             )));
         }
         Ok(state)
@@ -1141,6 +1147,16 @@ mod tests {
             .expect_err("an infinite sum is refused")
             .to_string();
         assert!(err.contains("risk.rls.a[0]"), "{err}");
+        // A time no input can have, and a byte-order mark an editor put in front.
+        let mut v = good.clone();
+        v["last_time"] = 1e308.into();
+        let err = read(&v)
+            .expect_err("a time of 1e308 s is refused")
+            .to_string();
+        assert!(err.contains("last_time is 1e308"), "{err}");
+        let mut bom = b"\xEF\xBB\xBF".to_vec();
+        bom.extend(serde_json::to_vec(&good).unwrap());
+        assert!(MonitorState::from_slice(&bom, Path::new("s.json")).is_ok());
     }
 
     #[test]

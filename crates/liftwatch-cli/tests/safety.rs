@@ -429,13 +429,13 @@ fn a_full_disk_leaves_no_partial_and_no_temporary_file() {
             s(out).into(),
         ]
     };
-    // fit keeps its aligned samples beside the model: a directory that is not there is named
-    // before anything is fitted.
+    // fit keeps its aligned samples beside the model: a directory that is not there is named,
+    // with the flag that names it, before anything is fitted.
     let missing = dir.path("missing");
     assert_refused(
         &fit_into(&missing.join("m.json")),
         &dir.0,
-        &format!("{}: No such file or directory", s(&missing)),
+        &format!("the directory {} does not exist", s(&missing)),
     );
     let Some(mount) = Mount::tmpfs(&dir.path("small"), "64k") else {
         return;

@@ -440,7 +440,7 @@ impl MonitorState {
         if state.samples > 0 && !in_range {
             return Err(bad(format!(
                 "last_time is {} after {} samples, where no input time lies (|t| ≤ {:e} s): the time the state covers is lost (edited or corrupted?)",
-                state.last_time,
+                crate::error::number(state.last_time),
                 state.samples,
                 crate::ingest::MAX_ABS_TIME_S
             )));

@@ -284,6 +284,12 @@ fn registry_and_shutdown(mut server: Server, model: &[u8]) {
     }
     let (st, reply) = server.req("POST", &format!("{id}/models/9/activate"), Some(TOKEN), b"");
     assert_eq!(st, 404, "{reply}");
+    // A description of another car than the active model's is refused: the monitor would
+    // go on with the model of a car the elevator no longer is.
+    let other = br#"{"rated_load_kg": 630, "rated_speed_mps": 1.0, "floors": 8}"#;
+    let (st, reply) = server.req("PUT", id, Some(TOKEN), other);
+    assert_eq!(st, 409, "{reply}");
+    assert!(reply.contains("630 kg"), "{reply}");
     // A visit labels the open advisory (the `normal` event that closed it is not open).
     let visit = br#"{"time": 1e9, "work": "speed encoder replaced", "finding": "confirmed", "rebaseline": true}"#;
     let (st, reply) = server.req("POST", &format!("{id}/maintenance"), Some(TOKEN), visit);
@@ -441,6 +447,14 @@ fn bad_input_is_refused_with_a_4xx_and_changes_nothing() {
         (
             "bad query",
             server.req("GET", "/api/v1/events?level=panic", None, b""),
+        ),
+        (
+            "a time that is no time",
+            server.req("GET", "/api/v1/events?from=NaN", None, b""),
+        ),
+        (
+            "a description that is not an object",
+            server.req("PUT", "/api/v1/elevators/a", Some(TOKEN), b"[]"),
         ),
     ];
     for (what, (status, body)) in &cases {

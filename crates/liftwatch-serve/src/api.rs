@@ -13,6 +13,7 @@
 //! elevators per instance (`max_elevators`, 409), ids `[A-Za-z0-9_-]{1,64}` (400): an id is a
 //! key in the database, never a path.
 
+use liftwatch::ingest::MAX_ABS_TIME_S;
 use liftwatch::sample::DAY_S;
 use std::sync::atomic::Ordering;
 use std::sync::Arc;
@@ -140,22 +141,37 @@ async fn writes_first(
         return refused(&s, e).into_response();
     }
     let (parts, body) = req.into_parts();
-    let read = axum::body::to_bytes(body, s.cfg.max_body_bytes);
+    let max = s.cfg.max_body_bytes;
+    let too_large = || {
+        ApiError(
+            StatusCode::PAYLOAD_TOO_LARGE,
+            format!("the body is larger than {max} bytes"),
+        )
+    };
+    // A declared length over the limit is refused before a byte of the body is waited for.
+    let declared = parts
+        .headers
+        .get(axum::http::header::CONTENT_LENGTH)
+        .and_then(|v| v.to_str().ok())
+        .and_then(|v| v.trim().parse::<u64>().ok());
+    if declared.is_some_and(|n| n > max as u64) {
+        return refused(&s, too_large()).into_response();
+    }
+    let read = axum::body::to_bytes(body, max);
     let bytes =
         match tokio::time::timeout(std::time::Duration::from_secs(BODY_TIMEOUT_S), read).await {
             Ok(Ok(b)) => b,
             Ok(Err(_)) => {
-                return refused(
-                    &s,
-                    ApiError(
-                        StatusCode::PAYLOAD_TOO_LARGE,
-                        format!(
-                            "the body is larger than {} bytes, or was cut off",
-                            s.cfg.max_body_bytes
-                        ),
+                // Within its declared length, a body that fails to arrive was cut off; a
+                // chunked one fails here only beyond the limit.
+                let e = match declared {
+                    Some(n) => ApiError(
+                        StatusCode::BAD_REQUEST,
+                        format!("the body ended before its Content-Length of {n} bytes"),
                     ),
-                )
-                .into_response()
+                    None => too_large(),
+                };
+                return refused(&s, e).into_response();
             }
             Err(_) => {
                 return refused(
@@ -449,7 +465,15 @@ async fn put_elevator(
         .and_then(|()| check_id(&id))
         .map_err(|e| refused(&s, e))?;
     let body = body_of(body).map_err(|e| refused(&s, e))?;
-    let mut info: ElevatorInfo = serde_json::from_slice(&body)
+    let value: serde_json::Value = serde_json::from_slice(&body)
+        .map_err(|e| refused(&s, ApiError::bad(format!("elevator description: {e}"))))?;
+    if !value.is_object() {
+        return Err(refused(
+            &s,
+            ApiError::bad("elevator description: expected a JSON object"),
+        ));
+    }
+    let mut info: ElevatorInfo = serde_json::from_value(value)
         .map_err(|e| refused(&s, ApiError::bad(format!("elevator description: {e}"))))?;
     info.id = None;
     check_info(&info).map_err(|e| refused(&s, ApiError::bad(e)))?;
@@ -465,6 +489,7 @@ async fn put_elevator(
         {
             return Err(full(&s2));
         }
+        registry::check_description(&conn, &id2, &info)?;
         let json = serde_json::to_string(&info).map_err(db)?;
         store::put_elevator(&conn, &id2, &json).map_err(db)
     })
@@ -510,6 +535,14 @@ fn query_of(q: Result<Query<ListQuery>, QueryRejection>) -> Result<ListQuery, Ap
     let q = q
         .map_err(|e| ApiError::bad(format!("query: {}", e.body_text())))?
         .0;
+    for (name, t) in [("from", q.from), ("to", q.to)] {
+        // Times are the telemetry's: a NaN, an infinity or 1e400 is no time to list from.
+        if t.is_some_and(|t| !(-MAX_ABS_TIME_S..=MAX_ABS_TIME_S).contains(&t)) {
+            return Err(ApiError::bad(format!(
+                "{name}: expected a time within ±{MAX_ABS_TIME_S:e} s, as telemetry times are"
+            )));
+        }
+    }
     if let Some(l) = &q.level {
         if !matches!(l.as_str(), "normal" | "advisory" | "alarm") {
             return Err(ApiError::bad(format!(

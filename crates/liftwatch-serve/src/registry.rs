@@ -313,6 +313,53 @@ fn model_json(r: &ModelRow, params: &Value) -> Value {
     })
 }
 
+/// Why the model of car `e` is not of the car the description `info` of `id` names; `None`
+/// where every value the description gives agrees.
+fn other_car(info: &ElevatorInfo, e: &liftwatch::Elevator, id: &str) -> Option<String> {
+    let differs = |stored: Option<f64>, model: f64| {
+        stored.is_some_and(|v| (v - model).abs() > 1e-6 * v.abs().max(1.0))
+    };
+    let other = differs(info.rated_load_kg, e.rated_load_kg)
+        || differs(info.rated_speed_mps, e.rated_speed_mps)
+        || info.floors.is_some_and(|f| f != e.floors);
+    other.then(|| {
+        format!(
+            "the model is of a {} kg, {} m/s, {}-floor car; `{id}` is {} kg, {} m/s, {} floors",
+            e.rated_load_kg,
+            e.rated_speed_mps,
+            e.floors,
+            info.rated_load_kg.map_or("?".into(), |v| v.to_string()),
+            info.rated_speed_mps.map_or("?".into(), |v| v.to_string()),
+            info.floors.map_or("?".into(), |v| v.to_string()),
+        )
+    })
+}
+
+/// Refuses a new description `info` of `id` that names another car than its active model's
+/// (409): the monitor would go on watching with the model of a car the elevator no longer
+/// is. Deploy a model of the new car first, or describe the car its model is of.
+///
+/// # Errors
+/// 409 naming both cars; the database's as 500.
+pub fn check_description(conn: &Connection, id: &str, info: &ElevatorInfo) -> Result<(), ApiError> {
+    let rows = model_rows(conn, id).map_err(|e| ApiError::internal(format!("database: {e}")))?;
+    let Some(body) = rows.iter().find(|r| r.6).and_then(|r| r.7.as_deref()) else {
+        return Ok(());
+    };
+    let Ok(model) = liftwatch::file::load_str(body, std::path::Path::new("active model")) else {
+        return Ok(());
+    };
+    match other_car(info, &model.hybrid.elevator, id) {
+        Some(why) => Err(ApiError(
+            axum::http::StatusCode::CONFLICT,
+            format!(
+                "{why}: the active model is of the other car; deploy a model of this one first"
+            ),
+        )),
+        None => Ok(()),
+    }
+}
+
 /// The active model's description, `None` without one.
 ///
 /// # Errors
@@ -396,23 +443,8 @@ pub fn upload(
     let info: ElevatorInfo = info
         .and_then(|i| serde_json::from_str(&i).ok())
         .unwrap_or_default();
-    let e = &model.hybrid.elevator;
-    let differs = |stored: Option<f64>, model: f64| {
-        stored.is_some_and(|v| (v - model).abs() > 1e-6 * v.abs().max(1.0))
-    };
-    if differs(info.rated_load_kg, e.rated_load_kg)
-        || differs(info.rated_speed_mps, e.rated_speed_mps)
-        || info.floors.is_some_and(|f| f != e.floors)
-    {
-        return Err(ApiError::bad(format!(
-            "the model is of a {} kg, {} m/s, {}-floor car; `{id}` is {} kg, {} m/s, {} floors",
-            e.rated_load_kg,
-            e.rated_speed_mps,
-            e.floors,
-            info.rated_load_kg.map_or("?".into(), |v| v.to_string()),
-            info.rated_speed_mps.map_or("?".into(), |v| v.to_string()),
-            info.floors.map_or("?".into(), |v| v.to_string()),
-        )));
+    if let Some(why) = other_car(&info, &model.hybrid.elevator, id) {
+        return Err(ApiError::bad(why));
     }
     let fingerprint = liftwatch::monitor::model_fingerprint(&model);
     store_model(
@@ -748,8 +780,11 @@ const MAX_WORK_CHARS: usize = 2000;
 /// # Errors
 /// 400 for a bad visit.
 pub fn add_visit(conn: &Connection, id: &str, v: &Visit) -> Result<Value, ApiError> {
-    if !v.time.is_finite() {
-        return Err(ApiError::bad("time must be a number of seconds"));
+    let max = liftwatch::ingest::MAX_ABS_TIME_S;
+    if !(-max..=max).contains(&v.time) {
+        return Err(ApiError::bad(format!(
+            "time must be a number of seconds within ±{max:e}, as telemetry times are"
+        )));
     }
     if !matches!(v.finding.as_str(), "confirmed" | "not_found") {
         return Err(ApiError::bad(format!(

@@ -176,7 +176,9 @@ impl ServiceVerdict {
         }
     }
 
-    /// `Availability: 83.2 % on the last day, 97.6 % over 7 days; out of service since …`.
+    /// `Availability: 83.2 % on the day of the last sample (…), 97.6 % over the last 7 days;
+    /// out of service since …`: the day is the calendar day of the data's clock the last
+    /// sample fell on, so a log ending at midnight shows the new day, still empty.
     pub fn availability_line(&self) -> String {
         let pct = |x: f64| {
             if x.is_finite() {
@@ -186,7 +188,7 @@ impl ServiceVerdict {
             }
         };
         let mut s = format!(
-            "Availability: {} on the last day ({} trips, {} door cycles), {} over the last 7 days",
+            "Availability: {} on the day of the last sample ({} trips, {} door cycles), {} over the last 7 days",
             pct(self.availability_last_day),
             self.trips_last_day,
             self.door_cycles_last_day,

@@ -109,9 +109,10 @@ impl BaselineLimits {
         }
         let p = &model.parameters;
         let m_r = model.elevator.rated_load_kg;
-        let f_u = p.force_from_voltage(x.s, x.v, x.voltage);
         let q = PhysParams::relative_height(x.floor, model.elevator.floors);
-        let friction = f64::from(x.s) * (f_u - p.inertia_and_weight(x.lambda, x.a, q, m_r));
+        let newton = p.inertia_and_weight(x.lambda, x.a, q, m_r);
+        let f_u = p.force_from_voltage(x.s, x.v, x.voltage, newton);
+        let friction = f64::from(x.s) * (f_u - newton);
         let above_line = x.voltage - (p.u0 + p.ke * x.v.abs());
         (friction, above_line)
     }

@@ -182,6 +182,8 @@ enum ParseError {
 }
 
 fn parse(text: &str) -> std::result::Result<FittedModel, ParseError> {
+    // A byte-order mark, as an editor on Windows saves JSON, is not the document's.
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let value: serde_json::Value =
         serde_json::from_str(text).map_err(|e| ParseError::Bad(e.to_string()))?;
     let version = value
@@ -286,7 +288,14 @@ fn check_parameters(p: &PhysParams, e: &Elevator) -> std::result::Result<(), Str
     check_range("kd", p.kd, 0.0, bound * volts / newtons)?;
     check_range("ke", p.ke, 0.0, bound * volts / e.rated_speed_mps)?;
     check_range("u0", p.u0, -bound * volts, bound * volts)?;
-    check_range("alpha_down", p.alpha_down, 0.0, bound)
+    check_range("alpha_down", p.alpha_down, 0.0, bound)?;
+    // 1 ± ε is the resistive term's slope either way the power flows: both must be positive.
+    check_range(
+        "loss_asymmetry",
+        p.loss_asymmetry,
+        -crate::model::physics::EPS_MAX,
+        crate::model::physics::EPS_MAX,
+    )
 }
 
 /// How far beyond the elevator's own scales a parameter may lie before the file is refused.

@@ -26,7 +26,7 @@
 
 use crate::elevator::Elevator;
 use crate::model::net::{backward_lanes, forward_lanes, NetCache, LANES, N_WEIGHTS};
-use crate::model::physics::{PhysParams, N_PHYS};
+use crate::model::physics::{PhysParams, EPS_MAX, N_PHYS};
 
 /// Number of optimised unknowns: θ (as z) then the network weights.
 pub const N_UNKNOWNS: usize = N_PHYS + N_WEIGHTS;
@@ -88,6 +88,7 @@ impl Prior {
                 1.0 * c.u0.max(5.0),
                 0.3,
                 0.5 * m_r,
+                EPS_PRIOR_SD,
             ],
         }
     }
@@ -101,7 +102,13 @@ impl Prior {
     }
 }
 
-/// The smooth map z → θ that keeps the positive parameters positive.
+/// τ of the loss asymmetry ε around its centre 0 (a lossless drive): wide enough for a worm
+/// gear's η of 0.6 (ε = 0.47) to be 1.6 τ away, so that the data decide.
+const EPS_PRIOR_SD: f64 = 0.3;
+
+/// The smooth map z → θ that keeps the positive parameters positive, the signed ones linear
+/// in z (Δm and m_rope in units of a tenth of the rated load) and ε inside ±[`EPS_MAX`]:
+/// ε = EPS_MAX·tanh(z/EPS_Z), a tenth of z near 0.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ParamMap {
     centre: [f64; N_PHYS],
@@ -109,6 +116,13 @@ pub struct ParamMap {
 }
 
 const LN2: f64 = std::f64::consts::LN_2;
+
+/// z per unit of ε/EPS_MAX's atanh: dε/dz = EPS_MAX/EPS_Z = 0.1 at ε = 0, a step of z
+/// of the size the other parameters take moves ε by a tenth.
+const EPS_Z: f64 = 8.0;
+
+/// The share of ±EPS_MAX beyond which z(ε) is taken at the edge (atanh(1) is infinite).
+const EPS_EDGE: f64 = 1.0 - 1e-12;
 
 fn softplus(z: f64) -> f64 {
     if z > 30.0 {
@@ -135,7 +149,9 @@ impl ParamMap {
     pub fn theta(&self, z: &[f64]) -> PhysParams {
         let mut t = [0.0; N_PHYS];
         for k in 0..N_PHYS {
-            t[k] = if PhysParams::SIGNED[k] {
+            t[k] = if k == PhysParams::EPS {
+                self.centre[k] + EPS_MAX * (z[k] / EPS_Z).tanh()
+            } else if PhysParams::SIGNED[k] {
                 self.centre[k] + self.delta_m_scale * z[k]
             } else {
                 self.centre[k] * softplus(z[k]) / LN2
@@ -148,7 +164,10 @@ impl ParamMap {
     pub fn dtheta_dz(&self, z: &[f64]) -> [f64; N_PHYS] {
         let mut d = [0.0; N_PHYS];
         for k in 0..N_PHYS {
-            d[k] = if PhysParams::SIGNED[k] {
+            d[k] = if k == PhysParams::EPS {
+                let th = (z[k] / EPS_Z).tanh();
+                EPS_MAX / EPS_Z * (1.0 - th * th)
+            } else if PhysParams::SIGNED[k] {
                 self.delta_m_scale
             } else {
                 self.centre[k] * sigmoid(z[k]) / LN2
@@ -162,6 +181,12 @@ impl ParamMap {
         let t = p.to_array();
         let mut z = [0.0; N_PHYS];
         for k in 0..N_PHYS {
+            if k == PhysParams::EPS {
+                // Inside the open interval, so that atanh stays finite.
+                let y = ((t[k] - self.centre[k]) / EPS_MAX).clamp(-EPS_EDGE, EPS_EDGE);
+                z[k] = EPS_Z * y.atanh();
+                continue;
+            }
             if PhysParams::SIGNED[k] {
                 z[k] = (t[k] - self.centre[k]) / self.delta_m_scale;
                 continue;
@@ -213,10 +238,10 @@ fn phys_eval(p: &PhysParams, motor_ref: &PhysParams, o: &Obs, m_r: f64) -> PhysE
     let u = p.voltage(o.s, o.v, f);
     // dF/dθ: Δm, m0, f_c, c and m_rope
     let g = crate::elevator::G;
-    let df = [g, o.a, s, o.v, 0.0, 0.0, 0.0, 0.0, g * o.q];
+    let df = [g, o.a, s, o.v, 0.0, 0.0, 0.0, 0.0, g * o.q, 0.0];
     let du = p.du_dtheta_at(o.s, o.v, o.a, o.q, f);
     // F_U through the reference motor model: no gradient flows into θ from here.
-    let f_u = motor_ref.force_from_voltage(o.s, o.v, o.u);
+    let f_u = motor_ref.force_from_voltage(o.s, o.v, o.u, f);
     PhysEval {
         value: HeldPhysics { f, u, f_u },
         du,
@@ -528,12 +553,16 @@ mod tests {
             u0: 6.0,
             alpha_down: 0.85,
             m_rope: -150.0,
+            loss_asymmetry: 0.16,
         };
         let back = map.theta(&map.z(&p)).to_array();
         for (a, b) in back.iter().zip(p.to_array()) {
             assert!((a - b).abs() < 1e-9 * b.abs().max(1.0), "{a} vs {b}");
         }
         let low = map.theta(&[-50.0; N_PHYS]);
+        assert!(
+            low.loss_asymmetry > -EPS_MAX && map.theta(&[50.0; N_PHYS]).loss_asymmetry < EPS_MAX
+        );
         let positive = low
             .to_array()
             .into_iter()

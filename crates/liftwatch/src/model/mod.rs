@@ -77,7 +77,7 @@ impl HybridModel {
         Prediction {
             u_pred: p.voltage(x.s, x.v, f_phys) + du,
             f_pred: f_phys + df,
-            f_u: p.force_from_voltage(x.s, x.v, x.voltage),
+            f_u: p.force_from_voltage(x.s, x.v, x.voltage, f_phys),
         }
     }
 

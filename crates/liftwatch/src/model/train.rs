@@ -229,8 +229,29 @@ pub struct TrainPoint {
     pub rms_u_v: f64,
     /// RMS of r_F over moving samples (N).
     pub rms_f_n: f64,
-    /// θ at this point, in the order of [`PhysParams::NAMES`].
+    /// θ at this point, in the order of [`PhysParams::NAMES`]. A model file written before
+    /// the loss asymmetry ε holds nine values; they load with ε = 0, as its parameters do.
+    #[serde(deserialize_with = "theta_of_any_build")]
     pub theta: [f64; N_PHYS],
+}
+
+/// θ in the order of [`PhysParams::NAMES`] from a model file of this build or of one before
+/// the later parameters (each appended at the end, and 0 where it is missing, as
+/// [`PhysParams`] defaults it): `N_PHYS − 1` or `N_PHYS` values.
+fn theta_of_any_build<'de, D: serde::Deserializer<'de>>(
+    d: D,
+) -> std::result::Result<[f64; N_PHYS], D::Error> {
+    let v = <Vec<f64> as serde::Deserialize>::deserialize(d)?;
+    if v.len() + 1 < N_PHYS || v.len() > N_PHYS {
+        return Err(serde::de::Error::custom(format!(
+            "`theta` holds {} values, expected {N_PHYS} (or {} from an earlier build)",
+            v.len(),
+            N_PHYS - 1
+        )));
+    }
+    let mut t = [0.0; N_PHYS];
+    t[..v.len()].copy_from_slice(&v);
+    Ok(t)
 }
 
 /// The trained hybrid model, before risk calibration.
@@ -504,7 +525,8 @@ pub fn train(
     let p1 = map.theta(&z);
     let sigma_u = stage1.sigma_u;
     let sigma_f = robust_sigma(data.iter().filter(|o| o.s != 0).map(|o| {
-        p1.force(o.s, o.v, o.lambda, o.a, o.q, m_r) - p1.force_from_voltage(o.s, o.v, o.u)
+        let f = p1.force(o.s, o.v, o.lambda, o.a, o.q, m_r);
+        f - p1.force_from_voltage(o.s, o.v, o.u, f)
     }))
     .max(SIGMA_FLOOR);
     let weights = LossWeights {
@@ -753,7 +775,7 @@ fn noise_corrected(
         rated_load_kg,
         sigma_u: stage1.sigma_u,
         w_p,
-        speed_noise: SpeedNoise::of(data, speed_noise_mps),
+        speed_noise: SpeedNoise::new(speed_noise_mps),
     };
     let z = problem.solve(stage1.z, &mut 0, &mut |_, _| {})?;
     Ok(Some(map.theta(&z)))
@@ -825,8 +847,8 @@ fn healthy_scales(
     };
     let model_f = |o: &Obs| {
         let [_, df] = net.forward(o.v, o.lambda, o.a);
-        parameters.force(o.s, o.v, o.lambda, o.a, o.q, m_r) + df
-            - parameters.force_from_voltage(o.s, o.v, o.u)
+        let f = parameters.force(o.s, o.v, o.lambda, o.a, o.q, m_r);
+        f + df - parameters.force_from_voltage(o.s, o.v, o.u, f)
     };
     ResidualScales {
         sigma_u_v: robust_sigma(data.iter().filter(|o| o.s != 0).map(model_u)).max(SIGMA_FLOOR),

@@ -271,17 +271,19 @@ impl DriftScale {
     }
 }
 
-/// The load-cell zero's regressor of one moving sample: ∂U_pred/∂λ = φ(s)·Kd·s·Q·(g + a)
-/// (V per unit of λ, the load as a share of the rated load Q): the inertia and the weight of
-/// a load that the cell reads but the car does not carry. The network's share of ∂U/∂λ is
-/// left out: it corrects the physics by a few per cent.
-pub fn load_signature(model: &HybridModel, x: &FeatureRow) -> f64 {
+/// The load-cell zero's regressor of one moving sample of predicted force `f_pred`:
+/// ∂U_pred/∂λ = Γ·Kd·s·Q·(g + a) (V per unit of λ, the load as a share of the rated load Q):
+/// the inertia and the weight of a load that the cell reads but the car does not carry. The
+/// network's share of ∂U/∂λ is left out: it corrects the physics by a few per cent.
+pub fn load_signature(model: &HybridModel, x: &FeatureRow, f_pred: f64) -> f64 {
     let p = &model.parameters;
-    p.phi(x.s) * p.kd * f64::from(x.s) * model.elevator.rated_load_kg * (G + x.a)
+    p.gain(x.s, f_pred) * p.kd * f64::from(x.s) * model.elevator.rated_load_kg * (G + x.a)
 }
 
 /// The fault-signature regressors of one moving sample (V per unit coefficient);
-/// `friction` is [`friction_reference`] of `model`, computed once by the caller.
+/// `friction` is [`friction_reference`] of `model`, computed once by the caller. Each is a
+/// force times Γ·Kd at the sample's predicted force `f_pred`: the slope of its power's flow
+/// ([`crate::model::PhysParams::gain`]), as a change of force moves the voltage there.
 pub fn signature(
     model: &HybridModel,
     friction: (f64, f64),
@@ -290,7 +292,7 @@ pub fn signature(
 ) -> [f64; N_MODES] {
     let p = &model.parameters;
     let (f_c, c_visc) = friction;
-    let phi_kd = p.phi(x.s) * p.kd;
+    let phi_kd = p.gain(x.s, f_pred) * p.kd;
     let s = f64::from(x.s);
     let braking = x.s == -1 || x.phase == Phase::Decelerating;
     let mut out = [0.0; N_MODES];
@@ -620,7 +622,7 @@ impl TripAccumulator {
                 *hh += w * xl * xq;
             }
         }
-        let xl = load_signature(model, x);
+        let xl = load_signature(model, x, p.f_pred);
         for m in 0..N_MODES {
             self.load.xm[m] += w * xl * sig[m];
         }

@@ -389,8 +389,9 @@ impl SimElevator {
     }
 
     /// The true parameters in the identification model's terms (MODEL.md and
-    /// `model::physics`): M0 with rotating inertia, mean F_c, c, nominal Kd, Ke, U0, α_down,
-    /// and the position terms Δm + m_rope·q as the least-squares line of the true imbalance
+    /// `model::physics`): M0 with rotating inertia, mean F_c, c, nominal Kd times the mean of
+    /// the transmission's two slopes, Ke, U0, α_down, ε of the transmission's η, and the
+    /// position terms Δm + m_rope·q as the least-squares line of the true imbalance
     /// over the landings, q = (floor − 1)/(floors − 1) − ½ (the landings are unevenly spaced,
     /// so the line is the best the floor-indexed model can do, not an exact match).
     pub fn true_params(&self) -> PhysParams {
@@ -412,11 +413,14 @@ impl SimElevator {
             m0: self.m0(),
             f_c: self.f_c,
             c_visc: self.c_visc,
-            kd: self.kd,
+            // Γ's mean slope and its asymmetry (model::physics): 1/η motoring, η regenerating.
+            kd: self.kd * (1.0 / self.efficiency + self.efficiency) / 2.0,
             ke: self.ke,
             u0: self.u0,
             alpha_down: self.alpha_down,
             m_rope: if sqq > 0.0 { sqi / sqq } else { 0.0 },
+            loss_asymmetry: (1.0 / self.efficiency - self.efficiency)
+                / (1.0 / self.efficiency + self.efficiency),
         }
     }
 }

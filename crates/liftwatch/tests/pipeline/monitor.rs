@@ -119,3 +119,25 @@ fn healthy_days_stay_normal_and_a_motor_fault_is_named() {
         (named.time - onset) / HOUR_S
     );
 }
+
+#[test]
+fn a_model_written_before_the_loss_asymmetry_loads_as_the_lossless_drive_it_was() {
+    // `liftwatch fit` of 4.8 hours (`simulate --days 0.2 --start-hour 7 --seed 3`) by the
+    // build before the loss asymmetry ε (c400a4c): nine parameters, nine values of θ in each
+    // point of its history. It loads with ε = 0, and the drive it describes is the lossless
+    // one it was fitted as: the resistive term's gain is φ(s) either way the power flows.
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data/model_before_loss_asymmetry.json");
+    let text = std::fs::read_to_string(&path).expect("the fixture is there");
+    let m = liftwatch::file::load_str(&text, &path).expect("an earlier build's model loads");
+    let p = m.hybrid.parameters;
+    assert_eq!(p.loss_asymmetry, 0.0);
+    assert!(!m.summary.history.is_empty());
+    assert!(m.summary.history.iter().all(|h| h.theta[9] == 0.0));
+    for (s, f) in [(1, 2000.0), (1, -2000.0), (-1, 2000.0), (-1, -2000.0)] {
+        assert_eq!(p.gain(s, f), p.phi(s));
+    }
+    // A byte-order mark in front, as an editor on Windows saves it, is not the document's.
+    let bom = format!("\u{feff}{text}");
+    assert!(liftwatch::file::load_str(&bom, &path).is_ok());
+}

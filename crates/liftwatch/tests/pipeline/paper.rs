@@ -31,6 +31,7 @@ fn truth() -> PhysParams {
         u0: 6.5,
         alpha_down: 0.85,
         m_rope: 0.0,
+        loss_asymmetry: 0.0,
     }
 }
 

@@ -2,7 +2,7 @@
 //!
 //! ```text
 //! C(z)  = Σ_i w_i·((U_i − U_phys(x_i; θ(z)))/σ_U)² − Σ_i w_i·(σ_v·D(s_i; θ)/σ_U)²
-//!         + w_P·Σ_k ((θ_k − μ_k)/τ_k)²              D(s; θ) = ∂U/∂|v| = Ke + φ(s)·Kd·c
+//!         + w_P·Σ_k ((θ_k − μ_k)/τ_k)²              D(s; θ) = ∂U/∂|v| = Ke + Γ·Kd·c
 //! J_ik  = ∂U_phys/∂θ_k · dθ_k/dz_k / σ_U           the prior enters as pseudo-observations
 //! E_ik  = σ_v·∂D(s_i)/∂θ_k · dθ_k/dz_k / σ_U       the speed noise's term, a negative square
 //! H     = Σ_i w_i·(J_iᵀJ_i − E_iᵀE_i) + w_P·diag((dθ_k/dz_k/τ_k)²)
@@ -32,7 +32,7 @@
 use crate::error::{Error, Result};
 use crate::linalg::SquareMatrix;
 use crate::model::loss::{Obs, ParamMap, Prior};
-use crate::model::physics::N_PHYS;
+use crate::model::physics::{PhysParams, N_PHYS};
 
 /// Most Gauss-Newton iterations (each one a fresh linearisation).
 const MAX_ITER: usize = 100;
@@ -73,40 +73,49 @@ pub struct VoltageFit<'a> {
     pub speed_noise: SpeedNoise,
 }
 
-/// σ_v, the noise of the speed reading (m/s), with Σ w of the moving observations up (+1)
-/// and down (−1): the noise's term is the same for every sample of one direction, so the
-/// sums, which θ does not move, are taken once and not at every evaluation of the cost.
+/// σ_v, the noise of the speed reading (m/s). Its term D(s; θ) is one value for every sample
+/// of one direction and one flow of power (Γ, [`crate::model::PhysParams::gain`]), so the
+/// cost sums the moving observations' weights into those four groups ([`FlowWeights`]) and
+/// takes D once per group.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SpeedNoise {
     sigma_mps: f64,
-    weights: [(i8, f64); 2],
 }
 
 impl SpeedNoise {
     /// No speed noise: the plain least squares.
-    pub const NONE: SpeedNoise = SpeedNoise {
-        sigma_mps: 0.0,
-        weights: [(1, 0.0), (-1, 0.0)],
-    };
+    pub const NONE: SpeedNoise = SpeedNoise { sigma_mps: 0.0 };
 
-    /// σ_v = `sigma_mps` on the moving observations of `data`; [`SpeedNoise::NONE`], without
-    /// a pass over the data, when it is not positive.
-    pub fn of(data: &[Obs], sigma_mps: f64) -> SpeedNoise {
+    /// σ_v = `sigma_mps`; [`SpeedNoise::NONE`] when it is not positive.
+    pub fn new(sigma_mps: f64) -> SpeedNoise {
         if sigma_mps.is_nan() || sigma_mps <= 0.0 {
             return SpeedNoise::NONE;
         }
-        let (mut up, mut down) = (0.0, 0.0);
-        for o in data {
-            match o.s {
-                1 => up += o.w,
-                -1 => down += o.w,
-                _ => {}
-            }
-        }
-        SpeedNoise {
-            sigma_mps,
-            weights: [(1, up), (-1, down)],
-        }
+        SpeedNoise { sigma_mps }
+    }
+}
+
+/// Σ w of the moving observations by direction and power flow at one θ: `[up, down]` ×
+/// `[motoring, regenerating]`, with a force of that flow to evaluate Γ at.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+struct FlowWeights([[f64; 2]; 2]);
+
+impl FlowWeights {
+    /// Counts observation `o` of driving force `f` (N).
+    fn add(&mut self, o: &Obs, f: f64) {
+        let dir = match o.s {
+            1 => 0,
+            -1 => 1,
+            _ => return,
+        };
+        let flow = usize::from(f * f64::from(o.s) < 0.0);
+        self.0[dir][flow] += o.w;
+    }
+
+    /// The four groups as (s, a force of the group's flow, Σ w).
+    fn groups(&self) -> [(i8, f64, f64); 4] {
+        let [[um, ur], [dm, dr]] = self.0;
+        [(1, 1.0, um), (1, -1.0, ur), (-1, -1.0, dm), (-1, 1.0, dr)]
     }
 }
 
@@ -170,25 +179,27 @@ impl VoltageFit<'_> {
     /// C(z).
     fn cost(&self, z: &[f64; N_PHYS]) -> f64 {
         let p = self.map.theta(z);
-        let d: f64 = self
-            .data
-            .iter()
-            .map(|o| o.w * ((o.u - o.u_phys(&p, self.rated_load_kg)) / self.sigma_u).powi(2))
-            .sum();
-        d - self.speed_noise_share(&p) + self.w_p * self.prior.penalty(&p)
+        let mut d = 0.0;
+        let mut flows = FlowWeights::default();
+        for o in self.data {
+            let f = p.force(o.s, o.v, o.lambda, o.a, o.q, self.rated_load_kg);
+            d += o.w * ((o.u - p.voltage(o.s, o.v, f)) / self.sigma_u).powi(2);
+            flows.add(o, f);
+        }
+        d - self.speed_noise_share(&p, &flows) + self.w_p * self.prior.penalty(&p)
     }
 
     /// Σ_i w_i·(σ_v·D(s_i; θ)/σ_U)²: the speed noise's expected share of the cost; 0
     /// without a speed noise.
-    fn speed_noise_share(&self, p: &crate::model::physics::PhysParams) -> f64 {
-        let noise = &self.speed_noise;
-        if noise.sigma_mps <= 0.0 {
+    fn speed_noise_share(&self, p: &PhysParams, flows: &FlowWeights) -> f64 {
+        let sigma = self.speed_noise.sigma_mps;
+        if sigma <= 0.0 {
             return 0.0;
         }
-        noise
-            .weights
+        flows
+            .groups()
             .into_iter()
-            .map(|(s, w)| w * (noise.sigma_mps * p.du_dspeed(s) / self.sigma_u).powi(2))
+            .map(|(s, f, w)| w * (sigma * p.du_dspeed(s, f) / self.sigma_u).powi(2))
             .sum()
     }
 
@@ -199,9 +210,12 @@ impl VoltageFit<'_> {
         let dz = self.map.dtheta_dz(z);
         let mut h = SquareMatrix::zeros(N_PHYS);
         let mut g = [0.0; N_PHYS];
+        let mut flows = FlowWeights::default();
         for o in self.data {
-            let r = (o.u - o.u_phys(&p, m_r)) / sigma_u;
-            let mut j = p.du_dtheta(o.s, o.v, o.lambda, o.a, o.q, m_r);
+            let f = p.force(o.s, o.v, o.lambda, o.a, o.q, m_r);
+            let r = (o.u - p.voltage(o.s, o.v, f)) / sigma_u;
+            let mut j = p.du_dtheta_at(o.s, o.v, o.a, o.q, f);
+            flows.add(o, f);
             for k in 0..N_PHYS {
                 j[k] *= dz[k] / sigma_u;
                 g[k] += o.w * r * j[k];
@@ -210,9 +224,9 @@ impl VoltageFit<'_> {
         }
         if self.speed_noise.sigma_mps > 0.0 {
             let scale = self.speed_noise.sigma_mps / sigma_u;
-            for (s, w) in self.speed_noise.weights {
-                let e = scale * p.du_dspeed(s);
-                let mut de = p.du_dspeed_dtheta(s);
+            for (s, f, w) in flows.groups() {
+                let e = scale * p.du_dspeed(s, f);
+                let mut de = p.du_dspeed_dtheta(s, f);
                 for k in 0..N_PHYS {
                     de[k] *= scale * dz[k];
                     g[k] += w * e * de[k];

@@ -202,7 +202,29 @@ pub(super) fn param_reports(
         p.ke * LATENCY_STEP_S / p.kd
     ));
     warnings.extend(lagging_voltage_note(p, prior.centre.m0));
+    let eps_se = cov.get(PhysParams::EPS, PhysParams::EPS).max(0.0).sqrt();
+    warnings.extend(transmission_note(p.loss_asymmetry, eps_se));
     (reps, warnings, Some(cov))
+}
+
+/// Standard errors the loss asymmetry must stand from 0 before the fit names the
+/// transmission's efficiency: the two-sided 5 % test.
+const TRANSMISSION_Z: f64 = 2.0;
+
+/// The note for a loss asymmetry ε that stands out of its standard error `se`: the two slopes
+/// it gives the resistive term and the transmission efficiency η = √((1 − ε)/(1 + ε)) that
+/// would give them (model::physics). A maintenance engineer reads a gear's wear there.
+fn transmission_note(eps: f64, se: f64) -> Option<String> {
+    (eps.abs() > TRANSMISSION_Z * se && eps.abs() < 1.0).then(|| {
+        format!(
+            "the drive's losses follow the power: the resistive term is {:.2} times Kd's slope while the motor drives the car and {:.2} times while the car drives the motor (loss_asymmetry {:.3} ± {:.3}), as a transmission of efficiency η ≈ {:.2} has it",
+            1.0 + eps,
+            1.0 - eps,
+            eps,
+            se,
+            ((1.0 - eps) / (1.0 + eps)).sqrt()
+        )
+    })
 }
 
 /// Below this share of the M0 the elevator's description makes typical, the fitted M0 is no
@@ -257,7 +279,8 @@ fn without_errors(p: &PhysParams, prior: &Prior) -> Vec<ParamReport> {
         .collect()
 }
 
-/// The identifiable combinations: the |v| slope of the voltage up and down.
+/// The identifiable combinations: the |v| slope of the voltage up and down (of the lossless
+/// slope Γ = φ; ε moves both by ±ε·Kd·c with the power's flow).
 fn combinations(p: &PhysParams, cov: &SquareMatrix) -> [ParamReport; 2] {
     let combo = |name: &str, grad: [f64; N_PHYS], value: f64| {
         let se = cov.quad_form(&grad).max(0.0).sqrt();
@@ -275,7 +298,7 @@ fn combinations(p: &PhysParams, cov: &SquareMatrix) -> [ParamReport; 2] {
     [
         combo(
             "ke + kd*c_visc",
-            [0.0, 0.0, 0.0, p.kd, p.c_visc, 1.0, 0.0, 0.0, 0.0],
+            [0.0, 0.0, 0.0, p.kd, p.c_visc, 1.0, 0.0, 0.0, 0.0, 0.0],
             p.ke + p.kd * p.c_visc,
         ),
         combo(
@@ -289,6 +312,7 @@ fn combinations(p: &PhysParams, cov: &SquareMatrix) -> [ParamReport; 2] {
                 1.0,
                 0.0,
                 p.kd * p.c_visc,
+                0.0,
                 0.0,
             ],
             p.ke + p.alpha_down * p.kd * p.c_visc,
@@ -308,6 +332,21 @@ mod tests {
             .and_then(|t| t.split(' ').next())
             .and_then(|t| t.parse().ok())
             .expect("the note states the lag in ms")
+    }
+
+    #[test]
+    fn a_loss_asymmetry_out_of_its_noise_is_read_as_the_transmissions_efficiency() {
+        let note = transmission_note(0.162, 0.012).expect("ε at 13 standard errors is noted");
+        assert!(note.contains("η ≈ 0.85"), "{note}");
+        assert!(
+            note.contains("1.16 times") && note.contains("0.84 times"),
+            "{note}"
+        );
+        assert_eq!(
+            transmission_note(0.01, 0.012),
+            None,
+            "ε within its noise is not"
+        );
     }
 
     #[test]

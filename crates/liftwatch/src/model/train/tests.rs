@@ -92,6 +92,7 @@ fn truth() -> PhysParams {
         u0: 8.0,
         alpha_down: 0.82,
         m_rope: -180.0,
+        loss_asymmetry: 0.0,
     }
 }
 
@@ -149,6 +150,36 @@ fn paper_exact_data_give_the_identifiable_parameters_back_within_2_percent() {
         (fit.summary.rms_u_v - 2.0).abs() < 0.2,
         "rms {}",
         fit.summary.rms_u_v
+    );
+}
+
+#[test]
+fn a_lossy_transmission_is_its_own_parameter_and_leaves_alpha_down_the_direction() {
+    // The same paper-exact traffic through a transmission of η = 0.85 (ε = 0.162): an empty
+    // car regenerates going up and motors going down, so a model keyed to the direction alone
+    // put 1/η² into α_down. ε takes it, and α_down and Kd come back as the drive has them.
+    let e = Elevator::new(1000.0, 1.75, 26);
+    let eta: f64 = 0.85;
+    let t = PhysParams {
+        loss_asymmetry: (1.0 / eta - eta) / (1.0 / eta + eta),
+        ..truth()
+    };
+    let rows = paper_exact(&t, &e, 2.0, 480, 5);
+    let obs = observations(&rows, e.floors, 0.1).unwrap();
+    let cfg = TrainConfig {
+        epochs: 200,
+        log_every: 0,
+        ..TrainConfig::default()
+    };
+    let p = train(&obs, &e, &cfg, &mut |_| {}).unwrap().parameters;
+    let rel = |a: f64, b: f64| (a - b).abs() / b.abs();
+    assert!(rel(p.alpha_down, t.alpha_down) < 0.02, "α_down {p:?}");
+    assert!(rel(p.kd, t.kd) < 0.02, "Kd {p:?}");
+    assert!(
+        (p.loss_asymmetry - t.loss_asymmetry).abs() < 0.02,
+        "ε {} vs {}",
+        p.loss_asymmetry,
+        t.loss_asymmetry
     );
 }
 

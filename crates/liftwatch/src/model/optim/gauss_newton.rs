@@ -75,7 +75,7 @@ pub struct VoltageFit<'a> {
 
 /// σ_v, the noise of the speed reading (m/s). Its term D(s; θ) is one value for every sample
 /// of one direction and one flow of power (Γ, [`crate::model::PhysParams::gain`]), so the
-/// cost sums the moving observations' weights into those four groups ([`FlowWeights`]) and
+/// cost sums the moving observations' weights into those four groups (`FlowWeights`) and
 /// takes D once per group.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SpeedNoise {

@@ -151,29 +151,22 @@ pub(super) fn param_reports(
             .map(|o| o.u - o.u_phys(p, m_r) - net.forward(o.v, o.lambda, o.a)[0]),
     )
     .max(MIN_SIGMA_V);
-    let mut h = SquareMatrix::zeros(N_PHYS);
-    for o in data {
-        let j = p
-            .du_dtheta(o.s, o.v, o.lambda, o.a, o.q, m_r)
-            .map(|v| v / sigma);
-        h.add_outer(&j, o.w);
-    }
-    for k in 0..N_PHYS {
-        *h.at(k, k) += w_p / (prior.sd[k] * prior.sd[k]);
-    }
     let mut warnings = Vec::new();
-    let Some(l) = h.cholesky() else {
+    let Some(cov) = covariance(data, p, prior, m_r, w_p, sigma) else {
         warnings
             .push("the parameter covariance is singular: standard errors are not available".into());
         return (without_errors(p, prior), warnings, None);
     };
-    let cov = l.cholesky_inverse();
     let t = p.to_array();
     let mut reps: Vec<ParamReport> = (0..N_PHYS)
         .map(|k| {
             let se = cov.get(k, k).max(0.0).sqrt();
             let determined = se < prior.sd[k] / DETERMINED_NARROWING;
-            if !determined {
+            if k == PhysParams::EPS && prior.sd[k] <= EPS_HELD_SD {
+                warnings.push(
+                    "the drive shows no loss asymmetry beyond its noise: loss_asymmetry is held at 0, the lossless drive of MODEL.md".into(),
+                );
+            } else if !determined {
                 warnings.push(format!(
                     "{} is set mostly by its prior (standard error {:.3} {} against prior width {:.3})",
                     PhysParams::NAMES[k],
@@ -206,6 +199,34 @@ pub(super) fn param_reports(
     warnings.extend(transmission_note(p.loss_asymmetry, eps_se));
     (reps, warnings, Some(cov))
 }
+
+/// The covariance of θ from the voltage equation's information on `data` at `p` with noise
+/// σ = `sigma` (V) and the prior: (Σ w·J·Jᵀ/σ² + w_P·diag(1/τ²))⁻¹, J = ∂U/∂θ; `None` when
+/// singular even with the prior.
+pub(super) fn covariance(
+    data: &[Obs],
+    p: &PhysParams,
+    prior: &Prior,
+    m_r: f64,
+    w_p: f64,
+    sigma: f64,
+) -> Option<SquareMatrix> {
+    let mut h = SquareMatrix::zeros(N_PHYS);
+    for o in data {
+        let j = p
+            .du_dtheta(o.s, o.v, o.lambda, o.a, o.q, m_r)
+            .map(|v| v / sigma);
+        h.add_outer(&j, o.w);
+    }
+    for k in 0..N_PHYS {
+        *h.at(k, k) += w_p / (prior.sd[k] * prior.sd[k]);
+    }
+    Some(h.cholesky()?.cholesky_inverse())
+}
+
+/// τ of ε's prior where stage 1 found no loss asymmetry beyond its noise: ε is held at 0
+/// (the lossless drive of MODEL.md), the other parameters fitted as without it.
+pub(super) const EPS_HELD_SD: f64 = 1e-9;
 
 /// Standard errors the loss asymmetry must stand from 0 before the fit names the
 /// transmission's efficiency: the two-sided 5 % test.

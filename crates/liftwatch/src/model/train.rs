@@ -681,9 +681,10 @@ fn fit_physics(
 
 /// Standard errors the loss asymmetry ε must stand out of 0 at stage 1 for the fit to keep
 /// it: a free ε costs the other parameters precision (on MODEL.md's own office traffic M0
-/// moved 2.05 % with ε at −0.023, 1.3 of its errors), so a drive that shows no loss
+/// moved 2.05 % with ε at −0.023, inside 3 of its errors), so a drive that shows no loss
 /// asymmetry is fitted as MODEL.md's lossless one. Lossy drives stand far out (ε 0.13-0.22 at
-/// ± 0.01 on eight simulated drives of η 0.8-0.85), lossless ones within one error.
+/// ± 0.002-0.012 on eight simulated drives of η 0.8-0.85), lossless ones inside (0.4-0.5
+/// errors on two simulated cars).
 const EPS_KEPT_Z: f64 = 3.0;
 
 /// Stage 1 with ε free and, where ε does not stand [`EPS_KEPT_Z`] standard errors out of 0,

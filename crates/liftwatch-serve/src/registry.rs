@@ -79,8 +79,11 @@ pub fn parse_telemetry(body: &[u8], ndjson: bool, max_rows: usize) -> Result<Par
         ));
     }
     let mut pre = Parsed::default();
+    // For JSON lines, the body's line of each CSV row (the CSV's line k + 2 is `origin[k]`):
+    // the lines that are no object and the blank ones have no row.
+    let mut origin = Vec::new();
     let text: Vec<u8> = if ndjson {
-        json_lines_to_csv(body, &mut pre)
+        json_lines_to_csv(body, &mut pre, &mut origin)
     } else {
         let first = body.split(|&b| b == b'\n').next().unwrap_or(b"");
         let first = first.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(first);
@@ -113,6 +116,15 @@ pub fn parse_telemetry(body: &[u8], ndjson: bool, max_rows: usize) -> Result<Par
     })
     .map_err(|e| ApiError::bad(e.to_string()))?;
     let shift = u64::from(!ndjson && text.len() != body.len());
+    // A line of the text read, as a line of the body as sent.
+    let body_line = |l: u64| {
+        if ndjson {
+            let k = usize::try_from(l.saturating_sub(2)).unwrap_or(usize::MAX);
+            origin.get(k).copied().unwrap_or(l)
+        } else {
+            l - shift
+        }
+    };
     let isolated = isolated_in_time(&readings);
     if let Some(&first) = isolated.first() {
         report.bad_rows += isolated.len() as u64;
@@ -131,19 +143,26 @@ pub fn parse_telemetry(body: &[u8], ndjson: bool, max_rows: usize) -> Result<Par
         let mut k = keep.iter();
         readings.retain(|_| *k.next().unwrap_or(&true));
     }
+    // The first bad line of the body: a JSON line that was no object, or a row the library
+    // refused, whichever comes first. The library's reason opens with `line N: ` counted in
+    // the text it read: dropped, the line is `first_bad_line`, counted in the body as sent.
+    let library = report.first_bad_lines.first().map(|&l| {
+        let why = report.first_bad_reason.as_deref().map(strip_line_prefix);
+        (body_line(l), why.map(str::to_string))
+    });
+    let (first_bad_line, first_bad_reason) = match (pre.first_bad_line, library) {
+        (Some(p), Some((l, why))) if l < p => (Some(l), why),
+        (Some(p), _) => (Some(p), pre.first_bad_reason.take()),
+        (None, Some((l, why))) => (Some(l), why),
+        (None, None) => (None, None),
+    };
     let mut out = Parsed {
         readings,
         bad: report.bad_rows + pre.bad,
         missing: report.missing_values,
         unknown: report.unknown_rows(),
-        first_bad_line: pre
-            .first_bad_line
-            .or(report.first_bad_lines.first().map(|l| l - shift)),
-        // The library's reason opens with `line N: ` counted in the text it read: dropped,
-        // the line is `first_bad_line`, counted in the body as sent.
-        first_bad_reason: pre.first_bad_reason.take().or(report
-            .first_bad_reason
-            .map(|r| strip_line_prefix(&r).to_string())),
+        first_bad_line,
+        first_bad_reason,
     };
     if out.readings.is_empty() {
         let why = match (&out.first_bad_line, &out.first_bad_reason) {
@@ -204,7 +223,8 @@ fn strip_line_prefix(why: &str) -> &str {
 
 /// JSON lines `{"time":…,"signal":…,"value":…}` as raw CSV rows; a line that is not such an
 /// object is counted bad (its line number kept) and left out.
-fn json_lines_to_csv(body: &[u8], p: &mut Parsed) -> Vec<u8> {
+/// `origin` gets the body's line (from 1) of each row written.
+fn json_lines_to_csv(body: &[u8], p: &mut Parsed, origin: &mut Vec<u64>) -> Vec<u8> {
     let mut out = RAW_HEADER.as_bytes().to_vec();
     for (i, line) in body.split(|&b| b == b'\n').enumerate() {
         if line.trim_ascii().is_empty() {
@@ -225,7 +245,10 @@ fn json_lines_to_csv(body: &[u8], p: &mut Parsed) -> Vec<u8> {
             ))
         });
         match row {
-            Some(r) => out.extend_from_slice(r.as_bytes()),
+            Some(r) => {
+                out.extend_from_slice(r.as_bytes());
+                origin.push(i as u64 + 1);
+            }
             None => {
                 p.bad += 1;
                 if p.first_bad_line.is_none() {
@@ -1149,6 +1172,38 @@ mod tests {
         body.push_str("86400,speed,0\n86400.5,door,1\n86401,speed,0\n");
         let p = parse_telemetry(body.as_bytes(), false, 1000).unwrap();
         assert_eq!((p.readings.len(), p.bad), (33, 0));
+    }
+
+    #[test]
+    fn a_bad_json_line_is_named_by_its_line_in_the_body_as_sent() {
+        let good = |t: u32| format!("{{\"time\":{t},\"signal\":\"speed\",\"value\":0}}\n");
+        // A blank line and a line that is no object come before a row the library refuses:
+        // the refused row is the body's line 5, not the converted text's.
+        let body = format!(
+            "{}\n[1,2]\n{}{{\"time\":3,\"signal\":\"speed\",\"value\":\"fast\"}}\n",
+            good(1),
+            good(2)
+        );
+        let p = parse_telemetry(body.as_bytes(), true, 100).unwrap();
+        assert_eq!((p.readings.len(), p.bad), (2, 2));
+        assert_eq!(p.first_bad_line, Some(3), "the array comes first");
+        // The refused row alone, after two lines of no row: its own line, its own reason.
+        let body = format!(
+            "\n\n{}{}{{\"time\":3,\"signal\":\"speed\",\"value\":\"fast\"}}\n",
+            good(1),
+            good(2)
+        );
+        let p = parse_telemetry(body.as_bytes(), true, 100).unwrap();
+        assert_eq!(p.first_bad_line, Some(5));
+        let why = p.first_bad_reason.unwrap();
+        assert!(why.contains("fast") && !why.contains("line "), "{why}");
+        // A refused row before a line that is no object is the first bad line.
+        let body = format!(
+            "{{\"time\":1,\"signal\":\"speed\",\"value\":\"x\"}}\n{}7\n",
+            good(2)
+        );
+        let p = parse_telemetry(body.as_bytes(), true, 100).unwrap();
+        assert_eq!((p.bad, p.first_bad_line), (2, Some(1)));
     }
 
     #[test]

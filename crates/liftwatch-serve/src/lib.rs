@@ -230,10 +230,25 @@ pub fn serve(opts: ServeOptions) -> Result<(), String> {
             log("warn", "no token (--token-file or LIFTWATCH_TOKEN): writes are refused, the service is read-only");
         }
         let app = api::router(shared.clone());
-        axum::serve(listener, app)
-            .with_graceful_shutdown(shutdown_signal())
-            .await
-            .map_err(|e| format!("server: {e}"))
+        let signalled = Arc::new(tokio::sync::Notify::new());
+        let notify = signalled.clone();
+        let server = axum::serve(listener, app).with_graceful_shutdown(async move {
+            shutdown_signal().await;
+            notify.notify_one();
+        });
+        // Graceful, but not waiting on a client: a connection that sent half a request header
+        // held the final checkpoint for hyper's header timeout, past the grace a supervisor
+        // gives (docker's 10 s, then SIGKILL).
+        tokio::select! {
+            r = std::future::IntoFuture::into_future(server) => r.map_err(|e| format!("server: {e}")),
+            () = async {
+                signalled.notified().await;
+                tokio::time::sleep(SHUTDOWN_GRACE).await;
+            } => {
+                log("warn", &format!("connections still open {} s after the signal: closed", SHUTDOWN_GRACE.as_secs()));
+                Ok(())
+            }
+        }
     });
     log("info", "shutting down: final checkpoint");
     let _ = tx.send(Msg::Stop);
@@ -241,6 +256,12 @@ pub fn serve(opts: ServeOptions) -> Result<(), String> {
     let _ = worker.join();
     result
 }
+
+/// How long requests under way may take to finish after SIGTERM or ctrl-c before their
+/// connections are closed and the final checkpoint is written: an ingest of the largest
+/// batch takes well under a second; a client that has not sent its request by then gets no
+/// answer (and resends: nothing unanswered was confirmed).
+const SHUTDOWN_GRACE: std::time::Duration = std::time::Duration::from_secs(5);
 
 /// Resolves at SIGTERM or ctrl-c.
 pub(crate) async fn shutdown_signal() {

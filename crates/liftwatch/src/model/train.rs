@@ -91,6 +91,12 @@ const LOAD_BINS: f64 = 200.0;
 const MIN_PER_DIRECTION: usize = 30;
 /// Least standstill samples: they fix U0.
 const MIN_STANDSTILL: usize = 30;
+/// Least rise of the moving voltage with speed, as a share of the prior's back-EMF constant
+/// Ke (0.85 of the rated voltage per rated speed): a motor's voltage is mostly its back-EMF,
+/// so its least-squares slope over the moving samples is near Ke, within the prior's factor
+/// of 2 for the voltage it assumed. A twentieth lies far below any motor's and far above a
+/// channel that is not one: a constant or zero reading, another quantity, kilovolts.
+const MIN_BACK_EMF_SHARE: f64 = 0.05;
 /// A drive whose median standstill voltage is below this share of its median moving voltage
 /// is off at rest. Energised, a drive shows U0 at rest, 1-3 % of its rated voltage and so
 /// 1.2-3.5 % of a cruising voltage at 85 % of it; a drive that is switched off shows the
@@ -321,6 +327,21 @@ pub fn observations_weighted(
     )
 }
 
+/// The least-squares slope of the voltage on the speed's size over `moving` (V·s/m); NaN
+/// when the speed does not vary.
+fn voltage_slope(moving: &[Obs]) -> f64 {
+    let n = moving.len() as f64;
+    let mean_v = moving.iter().map(|o| o.v.abs()).sum::<f64>() / n;
+    let mean_u = moving.iter().map(|o| o.u).sum::<f64>() / n;
+    let (mut vu, mut vv) = (0.0, 0.0);
+    for o in moving {
+        let dv = o.v.abs() - mean_v;
+        vu += dv * (o.u - mean_u);
+        vv += dv * dv;
+    }
+    vu / vv
+}
+
 /// Whether a row can be an observation: v, λ, a and U all finite.
 fn observable(r: &FeatureRow) -> bool {
     r.v.is_finite() && r.lambda.is_finite() && r.a.is_finite() && r.voltage.is_finite()
@@ -380,6 +401,16 @@ pub fn observations_of(
         return Err(Error::Unidentifiable(format!(
             "travel in one direction only ({up} s up, {down} s down): the up/down asymmetry that separates friction from imbalance is missing"
         )));
+    }
+    if ke_v_s_per_m > 0.0 {
+        let slope = voltage_slope(&moving);
+        if !(slope >= MIN_BACK_EMF_SHARE * ke_v_s_per_m) {
+            return Err(Error::Unidentifiable(format!(
+                "the voltage does not rise with the speed ({} V per m/s over the moving samples, where a motor's back-EMF gives about {:.0}): the voltage channel must be the motor's, in volts",
+                crate::error::number(slope),
+                ke_v_s_per_m
+            )));
+        }
     }
     let n_moving = moving.len();
     let speed_noise_mps = speed_noise_in(rows.moving_stretches());

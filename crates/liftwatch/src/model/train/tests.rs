@@ -381,6 +381,35 @@ fn one_direction_only_is_refused() {
 }
 
 #[test]
+fn a_voltage_that_does_not_rise_with_the_speed_is_refused_as_no_motor_voltage() {
+    let e = Elevator::new(1000.0, 1.75, 26);
+    let ke = PhysParams::prior_centre(&e).ke;
+    let rows = paper_exact(&truth(), &e, 2.0, 60, 5);
+    let refused = |f: &dyn Fn(f64) -> f64| {
+        let rows: Vec<FeatureRow> = rows
+            .iter()
+            .map(|r| FeatureRow {
+                voltage: f(r.voltage),
+                ..*r
+            })
+            .collect();
+        match observations_weighted(&rows, e.floors, 0.1, ke, 2.0) {
+            Err(Error::Unidentifiable(why)) => why.contains("does not rise with the speed"),
+            _ => false,
+        }
+    };
+    assert!(!refused(&|u| u), "the motor's own voltage");
+    assert!(
+        !refused(&|u| 0.2 * u),
+        "a fifth of the volts the rating implies: a motor still"
+    );
+    assert!(refused(&|_| 0.0), "all zeros");
+    assert!(refused(&|_| 230.0), "a constant");
+    assert!(refused(&|u| u / 1000.0), "kilovolts");
+    assert!(refused(&|u| 400.0 - u), "falling with the speed");
+}
+
+#[test]
 fn speeds_whose_differences_overflow_give_no_speed_noise_not_nan() {
     // A hostile log: cruising speeds of ±1.7e308 in pairs (+ + − −), so that v[t+1] and
     // v[t−1] differ in sign and their difference is infinite.

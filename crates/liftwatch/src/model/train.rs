@@ -404,7 +404,7 @@ pub fn observations_of(
     }
     if ke_v_s_per_m > 0.0 {
         let slope = voltage_slope(&moving);
-        if !(slope >= MIN_BACK_EMF_SHARE * ke_v_s_per_m) {
+        if slope.is_nan() || slope < MIN_BACK_EMF_SHARE * ke_v_s_per_m {
             return Err(Error::Unidentifiable(format!(
                 "the voltage does not rise with the speed ({} V per m/s over the moving samples, where a motor's back-EMF gives about {:.0}): the voltage channel must be the motor's, in volts",
                 crate::error::number(slope),

@@ -469,7 +469,7 @@ pub fn upload(
     if let Some(why) = other_car(&info, &model.hybrid.elevator, id) {
         return Err(ApiError::bad(why));
     }
-    let fingerprint = liftwatch::monitor::model_fingerprint(&model);
+    let fingerprint = liftwatch::file::model_id(&model);
     store_model(
         conn,
         id,
@@ -775,7 +775,7 @@ fn fit_from_history(
     let text = serde_json::to_string_pretty(&outcome.model).map_err(|e| e.to_string())?;
     // The same checks as an upload: a fit the registry would refuse is a failed fit.
     liftwatch::file::load_str(&text, Path::new("fitted model")).map_err(|e| e.to_string())?;
-    let fp = liftwatch::monitor::model_fingerprint(&outcome.model);
+    let fp = liftwatch::file::model_id(&outcome.model);
     let summary = format!("{} aligned samples", series.len());
     Ok((text, fp, summary))
 }

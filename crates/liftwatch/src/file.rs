@@ -18,7 +18,7 @@ use crate::calibrate::CalibrationReport;
 use crate::elevator::Elevator;
 use crate::error::{check_range, Error, Result};
 use crate::features::FeatureConfig;
-use crate::fit::FittedModel;
+use crate::fit::{FittedModel, ReadFrom};
 use crate::model::net::N_WEIGHTS;
 use crate::model::{FitSummary, HybridModel, PhysParams, ResidualNet, ResidualScales, TrainConfig};
 use crate::operation::OperationReference;
@@ -108,6 +108,7 @@ impl From<ModelDocument> for FittedModel {
             summary: d.fit,
             step_s: d.step_s,
             operation: d.operation,
+            read_from: ReadFrom::default(),
         }
     }
 }
@@ -199,10 +200,47 @@ fn parse(text: &str) -> std::result::Result<FittedModel, ParseError> {
     // Before the typed parse, whose complaint would quote a long string instead of naming it.
     crate::limits::check_strings(&value, crate::limits::MAX_STRING_CHARS)
         .map_err(ParseError::Bad)?;
-    let model: FittedModel =
+    let document = content_hash(&value);
+    let mut model: FittedModel =
         serde_json::from_value(value).map_err(|e| ParseError::Bad(e.to_string()))?;
     check(&model).map_err(ParseError::Bad)?;
+    model.read_from = ReadFrom(Some((document, own_hash(&model))));
     Ok(model)
+}
+
+/// The identity a monitor state records of its model (`MonitorState::model_id`), 16 hex
+/// digits: the content of the document the model was read from, or, for a model made in
+/// memory or changed since it was read, of the document it would be written as. The content
+/// is the document's JSON values, not its text: key order, white space and the spelling of a
+/// number do not count, and a model written by `fit` has the identity it had in memory.
+/// A state saved with a model file therefore resumes with that file under any later build,
+/// even one that writes the same model with a field more.
+pub fn model_id(model: &FittedModel) -> String {
+    let own = own_hash(model);
+    let id = match model.read_from.0 {
+        Some((document, read)) if read == own => document,
+        _ => own,
+    };
+    format!("{id:016x}")
+}
+
+/// [`content_hash`] of the document `model` is written as.
+fn own_hash(model: &FittedModel) -> u64 {
+    let value =
+        serde_json::to_value(model).expect("a model of numbers and names always serialises");
+    content_hash(&value)
+}
+
+/// FNV-1a over the compact JSON of `value`, whose objects keep their keys sorted (serde_json
+/// without `preserve_order`) and whose numbers are written shortest: one text per content.
+fn content_hash(value: &serde_json::Value) -> u64 {
+    let json = serde_json::to_vec(value).expect("a JSON value always serialises");
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for b in json {
+        h ^= u64::from(b);
+        h = h.wrapping_mul(0x0000_0100_0000_01b3);
+    }
+    h
 }
 
 /// Checks a parsed model for sense, not only syntax: every parameter and setting finite and

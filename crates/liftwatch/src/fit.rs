@@ -54,6 +54,22 @@ pub struct FittedModel {
     /// outages, availability and the door check ([`crate::operation`]); `None` in models
     /// written before they were learnt.
     pub operation: Option<OperationReference>,
+    /// The document the model was read from, for its identity ([`crate::file::model_id`]);
+    /// empty for a model made in memory.
+    pub read_from: ReadFrom,
+}
+
+/// The identity of the model document a model was read from, and the hash of the model as it
+/// was read: a model keeps the identity of its file for as long as it is unchanged, even where
+/// a later build writes the same model otherwise (a field it added, a default it fills in). It
+/// is provenance, not content: two models that differ only in it are equal.
+#[derive(Clone, Debug, Default)]
+pub struct ReadFrom(pub(crate) Option<(u64, u64)>);
+
+impl PartialEq for ReadFrom {
+    fn eq(&self, _: &ReadFrom) -> bool {
+        true
+    }
 }
 
 /// Everything `fit` produces: the model, and the intermediate results a report shows.
@@ -222,6 +238,7 @@ pub fn fit_with(
         summary,
         step_s: Some(history.step_s()),
         operation: Some(operation),
+        read_from: ReadFrom::default(),
     };
     Ok(FitOutcome {
         model,
@@ -288,6 +305,7 @@ impl FittedModel {
             summary: FitSummary::default(),
             step_s: None,
             operation: None,
+            read_from: ReadFrom::default(),
         }
     }
 }

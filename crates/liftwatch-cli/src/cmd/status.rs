@@ -10,7 +10,8 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use liftwatch::file;
-use liftwatch::monitor::{model_fingerprint, MonitorState};
+use liftwatch::file::model_id;
+use liftwatch::monitor::MonitorState;
 use liftwatch::verdict::Verdict;
 use std::io::Write;
 
@@ -32,7 +33,7 @@ pub struct Args {
 pub fn run(args: Args) -> anyhow::Result<()> {
     let model = file::load(&args.model).context("cannot use the model")?;
     let state = MonitorState::load(&args.state).context("cannot use the state")?;
-    let id = model_fingerprint(&model);
+    let id = model_id(&model);
     anyhow::ensure!(
         state.model_id == id,
         "{}: the state belongs to model {}, not to {} ({id}); pass the model it was monitored with",

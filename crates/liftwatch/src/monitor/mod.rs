@@ -307,23 +307,12 @@ impl Analysis {
     }
 }
 
-/// FNV-1a over the model's JSON: the identity a state records.
-pub fn model_fingerprint(model: &FittedModel) -> String {
-    let json = serde_json::to_vec(model).expect("a model of numbers and names always serialises");
-    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-    for b in json {
-        h ^= u64::from(b);
-        h = h.wrapping_mul(0x0000_0100_0000_01b3);
-    }
-    format!("{h:016x}")
-}
-
 /// Everything a monitor carries from one sample to the next; a few KiB as JSON.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct MonitorState {
     /// [`STATE_VERSION`].
     pub format_version: u32,
-    /// [`model_fingerprint`] of the model the state belongs to.
+    /// [`crate::file::model_id`] of the model the state belongs to.
     pub model_id: String,
     /// The method in use.
     pub method: Method,
@@ -606,7 +595,7 @@ impl Monitor {
     pub fn new(model: &FittedModel, method: Method) -> Self {
         let st = MonitorState {
             format_version: STATE_VERSION,
-            model_id: model_fingerprint(model),
+            model_id: crate::file::model_id(model),
             method,
             features: FeatureTracker::new(model.features.clone()),
             risk: RiskTracker::new(&model.risk),
@@ -651,7 +640,7 @@ impl Monitor {
                 state.format_version
             )));
         }
-        let id = model_fingerprint(model);
+        let id = crate::file::model_id(model);
         if state.model_id != id {
             return Err(Error::StateMismatch(format!(
                 "state belongs to model {}, not to this model {id}; a refit starts monitoring afresh (omit the state)",

@@ -6,6 +6,7 @@
 //! the motor, and the conventional baseline is compared on the same run.
 
 use liftwatch::alarm::Level;
+use liftwatch::file::model_id;
 use liftwatch::fit::{fit, FittedModel};
 use liftwatch::mode::FaultMode;
 use liftwatch::mode::FaultMode as Named;
@@ -140,4 +141,85 @@ fn a_model_written_before_the_loss_asymmetry_loads_as_the_lossless_drive_it_was(
     // A byte-order mark in front, as an editor on Windows saves it, is not the document's.
     let bom = format!("\u{feff}{text}");
     assert!(liftwatch::file::load_str(&bom, &path).is_ok());
+}
+
+#[test]
+fn a_model_keeps_the_identity_of_its_file_under_a_build_that_writes_it_otherwise() {
+    // The fixture is an earlier build's file: this build writes the same model with ε and a
+    // tenth value of θ in each point of the history, another document. A state records the
+    // identity of the file, so states saved with it resume under this build and later ones.
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data/model_before_loss_asymmetry.json");
+    let text = std::fs::read_to_string(&path).expect("the fixture is there");
+    let m = liftwatch::file::load_str(&text, &path).expect("an earlier build's model loads");
+    let id = model_id(&m);
+    let rewritten = serde_json::to_string_pretty(&m).expect("a model serialises");
+    let as_written = liftwatch::file::load_str(&rewritten, &path).expect("this build's text loads");
+    assert_eq!(as_written, m, "the same model");
+    assert_ne!(
+        model_id(&as_written),
+        id,
+        "the text this build writes is another document"
+    );
+
+    // The identity is the document's content, not its text: white space and key order aside.
+    let value: serde_json::Value = serde_json::from_str(&text).expect("JSON");
+    let compact = serde_json::to_string(&value).expect("JSON");
+    assert_ne!(compact, text);
+    let reread = liftwatch::file::load_str(&compact, &path).expect("loads");
+    assert_eq!(model_id(&reread), id);
+
+    // A model changed after it was read is another model.
+    let mut changed = m.clone();
+    changed.hybrid.scales.sigma_u_v *= 1.01;
+    assert_ne!(model_id(&changed), id);
+    assert_eq!(model_id(&m.clone()), id);
+}
+
+#[test]
+fn a_model_reads_back_to_the_bits_it_was_written_from() {
+    // Random weights and scales: numbers of every length, as a fit leaves them. serde_json's
+    // default reading brought 12 % of such numbers back one unit in the last place off.
+    let elevator = elevator();
+    let mut rng = Rng::new(9);
+    let mut net =
+        liftwatch::model::ResidualNet::new(1, [elevator.rated_speed_mps, 1.0, 1.0], [5.0, 500.0]);
+    for w in &mut net.weights {
+        *w = rng.uniform(-3.0, 3.0) * 10f64.powi(rng.uniform(-3.0, 4.0).floor() as i32);
+    }
+    let mut parameters = liftwatch::model::PhysParams::prior_centre(&elevator);
+    parameters.m0 *= 1.0 + rng.uniform(-0.1, 0.1);
+    parameters.kd *= 1.0 + rng.uniform(-0.1, 0.1);
+    let hybrid = liftwatch::model::HybridModel {
+        parameters,
+        net,
+        scales: liftwatch::model::ResidualScales {
+            sigma_u_v: rng.uniform(1.0, 3.0),
+            sigma_f_n: rng.uniform(100.0, 600.0),
+        },
+        elevator: elevator.clone(),
+    };
+    let m = FittedModel::uncalibrated(
+        hybrid,
+        liftwatch::features::FeatureConfig::for_elevator(&elevator),
+    );
+    let text = serde_json::to_string_pretty(&m).expect("a model serialises");
+    let read = liftwatch::file::load_str(&text, std::path::Path::new("m.json")).expect("loads");
+    let bits = |m: &FittedModel| -> Vec<u64> {
+        let p = m.hybrid.parameters.to_array();
+        m.hybrid
+            .net
+            .weights
+            .iter()
+            .chain(&p)
+            .map(|w| w.to_bits())
+            .collect()
+    };
+    assert_eq!(bits(&read), bits(&m));
+    assert_eq!(read, m);
+    assert_eq!(
+        model_id(&read),
+        model_id(&m),
+        "a written model keeps its identity"
+    );
 }

@@ -254,6 +254,83 @@ fn a_stream_killed_and_restarted_gives_the_rows_of_a_batch_run() {
     eprintln!("{:.1} s in all", t0.elapsed().as_secs_f64());
 }
 
+#[test]
+fn a_checkpoint_of_another_build_restarts_the_monitor_and_the_stream_goes_on() {
+    // A build that takes a model's identity or writes its state otherwise cannot resume the
+    // monitor state the one before it checkpointed. The elevator's stream must go on, with a
+    // fresh monitor of the active model, as after a re-baseline: it used to stop for good,
+    // every later batch stored and none applied.
+    let dir = Dir::new("serve-foreign-checkpoint");
+    let healthy = dir.path("healthy");
+    let model = healthy_day_and_model(&dir, &healthy);
+    let text = std::fs::read_to_string(healthy.join("raw.csv")).unwrap();
+    let lines: Vec<&str> = text.lines().skip(1).collect();
+    let post = |server: &Server, rows: &[&str]| {
+        for chunk in rows.chunks(5_000) {
+            let body = format!("time,signal,value\n{}\n", chunk.join("\n"));
+            let (st, reply) = server.req(
+                "POST",
+                "/api/v1/elevators/lift-1/telemetry",
+                Some(TOKEN),
+                body.as_bytes(),
+            );
+            assert_eq!(st, 200, "{reply}");
+        }
+    };
+    let data = dir.path("data");
+    let mut server = Server::start(&data, "127.0.0.1:0", Some(TOKEN));
+    let (st, reply) = server.req(
+        "POST",
+        "/api/v1/elevators/lift-1/models",
+        Some(TOKEN),
+        &std::fs::read(&model).unwrap(),
+    );
+    assert_eq!(st, 201, "{reply}");
+    let half = lines.len() / 2;
+    post(&server, &lines[..half]);
+    settle(&server);
+    let trips_before = server.get_json("/api/v1/elevators/lift-1/risk?limit=100000")["rows"]
+        .as_array()
+        .unwrap()
+        .len();
+    assert!(trips_before > 10, "{trips_before} trips in half a day");
+    server.kill9();
+
+    // The checkpoint as another build's: its model identity is not this build's.
+    let db = rusqlite::Connection::open(data.join("liftwatch.db")).unwrap();
+    let changed = db
+        .execute(
+            "UPDATE checkpoints SET monitor = json_set(monitor, '$.model_id', '0123456789abcdef') WHERE elevator = 'lift-1' AND monitor IS NOT NULL",
+            [],
+        )
+        .unwrap();
+    assert_eq!(
+        changed, 1,
+        "the elevator's checkpoint holds a monitor state"
+    );
+    drop(db);
+
+    let server = Server::start(&data, "127.0.0.1:0", Some(TOKEN));
+    let seq_before = server.get_json("/api/v1/elevators/lift-1")["applied_seq"]
+        .as_i64()
+        .unwrap();
+    post(&server, &lines[half..]);
+    settle(&server);
+    let summary = server.get_json("/api/v1/elevators/lift-1");
+    assert!(
+        summary["applied_seq"].as_i64().unwrap() > seq_before,
+        "the batches after the restart were applied: {summary}"
+    );
+    let trips_after = server.get_json("/api/v1/elevators/lift-1/risk?limit=100000")["rows"]
+        .as_array()
+        .unwrap()
+        .len();
+    assert!(
+        trips_after > trips_before + 10,
+        "trips of the second half watched: {trips_before} then {trips_after}"
+    );
+}
+
 /// The model registry and maintenance on the streamed elevator, then a graceful shutdown.
 fn registry_and_shutdown(mut server: Server, model: &[u8]) {
     let id = "/api/v1/elevators/lift-1";

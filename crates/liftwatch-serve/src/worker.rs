@@ -420,12 +420,21 @@ impl Worker {
                 let (model, monitor) = match (version, monitor) {
                     (Some(v), Some(text)) => {
                         let m = self.model(conn, id, v)?;
-                        let st = MonitorState::from_slice(
+                        let mon = MonitorState::from_slice(
                             text.as_bytes(),
                             std::path::Path::new("checkpoint"),
                         )
-                        .map_err(|e| e.to_string())?;
-                        let mon = Monitor::resume(&m, st).map_err(|e| e.to_string())?;
+                        .and_then(|st| Monitor::resume(&m, st))
+                        .unwrap_or_else(|e| {
+                            // Another build's state (another format, or a model identity it
+                            // took otherwise): monitoring goes on afresh rather than not at
+                            // all, as after a re-baseline.
+                            log(
+                                "error",
+                                &format!("elevator {id}: its checkpoint does not resume ({e}); the monitor restarts from model {v}"),
+                            );
+                            Monitor::new(&m, Method::Pinn)
+                        });
                         (Some((v, m)), Some(mon))
                     }
                     _ => (None, None),

@@ -563,12 +563,21 @@ impl Fleet {
                 let monitor = match (&c.model, &c.monitor) {
                     (Some((d, _)), Some(text)) => {
                         let m = self.model(d).await?;
-                        let st = MonitorState::from_slice(
+                        let mon = MonitorState::from_slice(
                             text.as_bytes(),
                             std::path::Path::new("checkpoint"),
                         )
-                        .map_err(|e| e.to_string())?;
-                        Some(Monitor::resume(&m, st).map_err(|e| e.to_string())?)
+                        .and_then(|st| Monitor::resume(&m, st))
+                        .unwrap_or_else(|e| {
+                            // As in the single-node worker: another build's state restarts
+                            // the monitor rather than stopping the elevator's stream.
+                            log(
+                                "error",
+                                &format!("elevator {id}: its checkpoint does not resume ({e}); the monitor restarts from model {d}"),
+                            );
+                            Monitor::new(&m, Method::Pinn)
+                        });
+                        Some(mon)
                     }
                     _ => None,
                 };

@@ -420,21 +420,7 @@ impl Worker {
                 let (model, monitor) = match (version, monitor) {
                     (Some(v), Some(text)) => {
                         let m = self.model(conn, id, v)?;
-                        let mon = MonitorState::from_slice(
-                            text.as_bytes(),
-                            std::path::Path::new("checkpoint"),
-                        )
-                        .and_then(|st| Monitor::resume(&m, st))
-                        .unwrap_or_else(|e| {
-                            // Another build's state (another format, or a model identity it
-                            // took otherwise): monitoring goes on afresh rather than not at
-                            // all, as after a re-baseline.
-                            log(
-                                "error",
-                                &format!("elevator {id}: its checkpoint does not resume ({e}); the monitor restarts from model {v}"),
-                            );
-                            Monitor::new(&m, Method::Pinn)
-                        });
+                        let mon = resume_or_restart(&m, &text, id, &v.to_string());
                         (Some((v, m)), Some(mon))
                     }
                     _ => (None, None),
@@ -673,4 +659,25 @@ fn current_gen(conn: &Connection, id: &str) -> Result<i64, String> {
     .optional()
     .map(|g| g.unwrap_or(0))
     .map_err(|e| e.to_string())
+}
+
+/// The monitor of a checkpoint's state `text` with `model` (named `model_name` in the log), or,
+/// when that state does not resume (another build's: another format, or a model identity it
+/// took otherwise), a fresh monitor of the model, logged: monitoring goes on afresh rather than
+/// not at all, as after a re-baseline. The single-node worker's and the fleet's.
+pub(crate) fn resume_or_restart(
+    model: &FittedModel,
+    text: &str,
+    id: &str,
+    model_name: &str,
+) -> Monitor {
+    MonitorState::from_slice(text.as_bytes(), std::path::Path::new("checkpoint"))
+        .and_then(|st| Monitor::resume(model, st))
+        .unwrap_or_else(|e| {
+            log(
+                "error",
+                &format!("elevator {id}: its checkpoint does not resume ({e}); the monitor restarts from model {model_name}"),
+            );
+            Monitor::new(model, Method::Pinn)
+        })
 }

@@ -43,7 +43,7 @@ use bytes::Bytes;
 use futures_util::StreamExt;
 use liftwatch::align::{AlignConfig, Aligner};
 use liftwatch::fit::FittedModel;
-use liftwatch::monitor::{Method, Monitor, MonitorState};
+use liftwatch::monitor::{Method, Monitor};
 use serde::{Deserialize, Serialize};
 use serde_json::json;
 
@@ -563,21 +563,7 @@ impl Fleet {
                 let monitor = match (&c.model, &c.monitor) {
                     (Some((d, _)), Some(text)) => {
                         let m = self.model(d).await?;
-                        let mon = MonitorState::from_slice(
-                            text.as_bytes(),
-                            std::path::Path::new("checkpoint"),
-                        )
-                        .and_then(|st| Monitor::resume(&m, st))
-                        .unwrap_or_else(|e| {
-                            // As in the single-node worker: another build's state restarts
-                            // the monitor rather than stopping the elevator's stream.
-                            log(
-                                "error",
-                                &format!("elevator {id}: its checkpoint does not resume ({e}); the monitor restarts from model {d}"),
-                            );
-                            Monitor::new(&m, Method::Pinn)
-                        });
-                        Some(mon)
+                        Some(crate::worker::resume_or_restart(&m, text, id, d))
                     }
                     _ => None,
                 };

@@ -208,13 +208,14 @@ fn parse(text: &str) -> std::result::Result<FittedModel, ParseError> {
     Ok(model)
 }
 
-/// The identity a monitor state records of its model (`MonitorState::model_id`), 16 hex
-/// digits: the content of the document the model was read from, or, for a model made in
-/// memory or changed since it was read, of the document it would be written as. The content
-/// is the document's JSON values, not its text: key order, white space and the spelling of a
-/// number do not count, and a model written by `fit` has the identity it had in memory.
-/// A state saved with a model file therefore resumes with that file under any later build,
-/// even one that writes the same model with a field more.
+/// The identity a monitor state records of its model (`MonitorState::model_id`), 16 hex digits:
+/// the content of the document the model was read from, or, for a model made in memory or
+/// changed since it was read, of the document it would be written as. The content is the
+/// document's JSON values, not its text: key order and white space do not count (nor a float's
+/// spelling: `1e3` is `1000.0`, though `1000` is an integer and another value), and a model
+/// written by `fit` has the identity it had in memory. A state saved with a model file
+/// therefore resumes with that file under any later build, even one that writes the same model
+/// with a field more.
 pub fn model_id(model: &FittedModel) -> String {
     let own = own_hash(model);
     let id = match model.read_from.0 {

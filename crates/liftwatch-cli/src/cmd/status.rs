@@ -36,7 +36,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let id = model_id(&model);
     anyhow::ensure!(
         state.model_id == id,
-        "{}: the state belongs to model {}, not to {} ({id}); pass the model it was monitored with",
+        "{}: the state belongs to model {}, not to {} ({id}); pass the model it was monitored with (a state saved by a build before 2026-12 took a model's identity otherwise and matches no model now)",
         args.state.display(),
         state.model_id,
         args.model.display()

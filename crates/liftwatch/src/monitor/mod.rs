@@ -643,7 +643,7 @@ impl Monitor {
         let id = crate::file::model_id(model);
         if state.model_id != id {
             return Err(Error::StateMismatch(format!(
-                "state belongs to model {}, not to this model {id}; a refit starts monitoring afresh (omit the state)",
+                "state belongs to model {}, not to this model {id} (another model file, or a build before 2026-12, which took a model's identity otherwise); a new model starts monitoring afresh (omit the state)",
                 state.model_id
             )));
         }

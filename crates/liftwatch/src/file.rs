@@ -232,12 +232,17 @@ fn own_hash(model: &FittedModel) -> u64 {
     content_hash(&value)
 }
 
-/// FNV-1a over the compact JSON of `value`, whose objects keep their keys sorted (serde_json
+/// [`fnv1a`] over the compact JSON of `value`, whose objects keep their keys sorted (serde_json
 /// without `preserve_order`) and whose numbers are written shortest: one text per content.
 fn content_hash(value: &serde_json::Value) -> u64 {
-    let json = serde_json::to_vec(value).expect("a JSON value always serialises");
+    fnv1a(&serde_json::to_vec(value).expect("a JSON value always serialises"))
+}
+
+/// FNV-1a, 64 bits: the content key of model documents, here and in the fleet's model store
+/// (a key, not a safeguard).
+pub fn fnv1a(bytes: &[u8]) -> u64 {
     let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-    for b in json {
+    for &b in bytes {
         h ^= u64::from(b);
         h = h.wrapping_mul(0x0000_0100_0000_01b3);
     }

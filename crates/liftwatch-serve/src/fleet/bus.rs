@@ -74,12 +74,7 @@ fn id_of_subject(subject: &str) -> Option<&str> {
 
 /// A model digest: FNV-1a of the file, 64 bits in hex (a content key, not a safeguard).
 pub fn digest(body: &[u8]) -> String {
-    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-    for &b in body {
-        h ^= u64::from(b);
-        h = h.wrapping_mul(0x0100_0000_01b3);
-    }
-    format!("{h:016x}")
+    format!("{:016x}", liftwatch::file::fnv1a(body))
 }
 
 /// A partition being read: JetStream's durable pull consumer `part-{p}`.

@@ -10,7 +10,6 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use liftwatch::file;
-use liftwatch::file::model_id;
 use liftwatch::monitor::MonitorState;
 use liftwatch::verdict::Verdict;
 use std::io::Write;
@@ -33,14 +32,9 @@ pub struct Args {
 pub fn run(args: Args) -> anyhow::Result<()> {
     let model = file::load(&args.model).context("cannot use the model")?;
     let state = MonitorState::load(&args.state).context("cannot use the state")?;
-    let id = model_id(&model);
-    anyhow::ensure!(
-        state.model_id == id,
-        "{}: the state belongs to model {}, not to {} ({id}); pass the model it was monitored with (a state saved by a build before 2026-12 took a model's identity otherwise and matches no model now)",
-        args.state.display(),
-        state.model_id,
-        args.model.display()
-    );
+    state
+        .check_model(&model)
+        .with_context(|| format!("{}", args.state.display()))?;
     let verdict = Verdict::new(&model, &state);
     // Written, not printed: a reader that goes away (`status | head -1`) is an I/O error
     // that ends the run quietly with 141, never a panic.

@@ -386,6 +386,29 @@ fn non_finite_accumulator(state: &serde_json::Value) -> Option<String> {
 }
 
 impl MonitorState {
+    /// Whether this state continues `model`: its format is this build's and it records
+    /// `model`'s identity ([`crate::file::model_id`]). The one check of [`Monitor::resume`]
+    /// and of a reader of the state (`liftwatch status`).
+    ///
+    /// # Errors
+    /// [`Error::StateMismatch`] naming both identities or both format versions.
+    pub fn check_model(&self, model: &FittedModel) -> Result<()> {
+        if self.format_version != STATE_VERSION {
+            return Err(Error::StateMismatch(format!(
+                "state format version {} is not {STATE_VERSION}",
+                self.format_version
+            )));
+        }
+        let id = crate::file::model_id(model);
+        if self.model_id != id {
+            return Err(Error::StateMismatch(format!(
+                "state belongs to model {}, not to this model {id} (another model file, or a build before 2026-12, which took a model's identity otherwise); pass the model it was monitored with, or start afresh without the state",
+                self.model_id
+            )));
+        }
+        Ok(())
+    }
+
     /// Reads a state file.
     ///
     /// # Errors
@@ -634,19 +657,7 @@ impl Monitor {
     /// # Errors
     /// [`Error::StateMismatch`] when the state belongs to another model or version.
     pub fn resume(model: &FittedModel, state: MonitorState) -> Result<Monitor> {
-        if state.format_version != STATE_VERSION {
-            return Err(Error::StateMismatch(format!(
-                "state format version {} is not {STATE_VERSION}",
-                state.format_version
-            )));
-        }
-        let id = crate::file::model_id(model);
-        if state.model_id != id {
-            return Err(Error::StateMismatch(format!(
-                "state belongs to model {}, not to this model {id} (another model file, or a build before 2026-12, which took a model's identity otherwise); a new model starts monitoring afresh (omit the state)",
-                state.model_id
-            )));
-        }
+        state.check_model(model)?;
         Ok(Monitor {
             model: model.clone(),
             friction: friction_reference(&model.hybrid),
@@ -1099,6 +1110,14 @@ mod tests {
             Monitor::resume(&other, state.clone()),
             Err(Error::StateMismatch(_))
         ));
+        // The one check a reader of the state (`status`) makes too: another format version.
+        let mut newer = state.clone();
+        newer.format_version += 1;
+        assert!(matches!(
+            newer.check_model(&model),
+            Err(Error::StateMismatch(_))
+        ));
+        assert!(state.check_model(&model).is_ok());
         assert!(Monitor::resume(&model, state).is_ok());
     }
 

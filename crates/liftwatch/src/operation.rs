@@ -982,6 +982,11 @@ impl OperationTracker {
 
     fn day_mut(&mut self, t: f64) -> &mut DayUsage {
         let d = self.day_of(t);
+        // The last sample's day, on all but the first sample of a day.
+        let n = self.days.len();
+        if n > 0 && self.days[n - 1].day == d {
+            return &mut self.days[n - 1];
+        }
         if self.days.back().map_or(true, |u| u.day < d) {
             self.days.push_back(DayUsage {
                 day: d,

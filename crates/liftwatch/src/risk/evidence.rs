@@ -418,6 +418,37 @@ pub struct Heating {
     /// kept).
     #[serde(with = "exact", default)]
     pub moving: f64,
+    /// The lag's factor e^(−span/τ) of the last span and τ it was taken for: rows come one
+    /// step apart, so one exponential serves nearly every row (the same bits: it is that
+    /// call's result). Not part of the state: equal states may hold different memos.
+    #[serde(skip)]
+    keep: KeepMemo,
+}
+
+/// The last e^(−span/τ) of [`Heating::step`], keyed by the bits of span and τ.
+#[derive(Clone, Copy, Debug, Default)]
+struct KeepMemo(Option<(u64, u64, f64)>);
+
+impl KeepMemo {
+    /// e^(−span/τ), from the memo when span and τ are those of the last call.
+    fn keep(&mut self, span: f64, tau_s: f64) -> f64 {
+        let key = (span.to_bits(), tau_s.to_bits());
+        match self.0 {
+            Some((s, t, k)) if (s, t) == key => k,
+            _ => {
+                let k = (-span / tau_s).exp();
+                self.0 = Some((key.0, key.1, k));
+                k
+            }
+        }
+    }
+}
+
+/// A memo is no part of the state it rides on: every two are equal.
+impl PartialEq for KeepMemo {
+    fn eq(&self, _: &KeepMemo) -> bool {
+        true
+    }
 }
 
 /// What a sample tells the winding's lag ([`Heating::advance`]).
@@ -484,7 +515,7 @@ impl Heating {
             } else {
                 dt
             };
-            let keep = (-span / tau_s).exp();
+            let keep = self.keep.keep(span, tau_s);
             let load = match input {
                 HeatInput::Rest => Some(0.0),
                 HeatInput::Moving(l) if l.is_finite() => {

@@ -1844,7 +1844,7 @@ fn window_drift(cfg: &SequentialConfig, c: &Cusum) -> ([f64; N_MODES], [f64; N_M
 /// n evenly spread trips the line's variance is 4/n of a trip's, the curve's 9/n), and it
 /// follows hour-to-hour wander more than the line does. Weighing the line, every step and
 /// every ramp from an hour by their likelihoods was tried first and read exponential ramps
-/// high: a ramp from its likeliest hour extrapolates its steepest part (README, Evaluation).
+/// high: a ramp from its likeliest hour extrapolates its steepest part (docs/EVALUATION-HISTORY.md, *The field bench*).
 fn alone_drift(cfg: &SequentialConfig, c: &Cusum, m: usize) -> (f64, f64) {
     let k = PACKED_DIAG[m];
     let (a, s) = (c.w[k], c.s[m]);
@@ -2008,7 +2008,7 @@ fn remainder_drifts(cfg: &SequentialConfig, c: &Cusum, m: usize) -> Option<[(usi
 /// 14:00 of one day, a 50-trip block being 40 minutes of that busy car, and its bend stood
 /// 2.7 times v_d. It is not a bend the healthy trips show: a week of that car's training,
 /// read in windows of a quarter day to a day from every block, bends no more than v_d
-/// predicts along any signature (README, Evaluation), and counting such a bend in v_d
+/// predicts along any signature (README, Limits), and counting such a bend in v_d
 /// changed no reading of the suites.
 fn moving_wander(cfg: &SequentialConfig, m: usize) -> f64 {
     let block = WANDER_BLOCK_TRIPS as f64 * cfg.info[m];

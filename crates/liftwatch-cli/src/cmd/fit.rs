@@ -217,8 +217,16 @@ pub fn summary(m: &fit::FittedModel, trips: usize, seconds: f64) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "fitted in {seconds:.2} s: {} moving samples in {trips} trips, {} standstill; rms r_U {:.2} V, rms r_F {:.0} N",
-        f.moving_samples, f.standstill_samples, f.rms_u_v, f.rms_f_n
+        "fitted in {seconds:.2} s: {} moving samples in {trips} trips, {}; rms r_U {:.2} V, rms r_F {:.0} N",
+        f.moving_samples,
+        // None are taken only from a drive off between trips (train::observations_of).
+        if f.standstill_samples == 0 {
+            "no standstill sample (the drive is off between trips)".to_string()
+        } else {
+            format!("{} at standstill", f.standstill_samples)
+        },
+        f.rms_u_v,
+        f.rms_f_n
     );
     let _ = writeln!(
         s,

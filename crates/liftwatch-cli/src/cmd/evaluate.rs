@@ -60,6 +60,10 @@ pub struct Args {
     /// the car and gives back F·η while the car drives it; 1 is lossless.
     #[arg(long, default_value_t = 1.0)]
     pub efficiency: f64,
+    /// Seed of the network's initial weights in every training (as `fit --seed`); the
+    /// plants and runs stay as they are, so the results' spread over it is the method's own.
+    #[arg(long, default_value_t = 1)]
+    pub net_seed: u64,
     /// Summary: --quiet, --json.
     #[command(flatten)]
     pub ui: UiArgs,
@@ -84,10 +88,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     cfg.only = args.only;
     cfg.drive_at_rest = args.drive_at_rest.plant();
     cfg.efficiency = args.efficiency;
+    cfg.net_seed = args.net_seed;
     let ui = Ui::new(args.ui, &[])?;
     let clock = Instant::now();
     ui.say(format_args!(
-        "evaluate: {} suite, seed {}, trainings of {} days, faults over {} days ({}, severity x{}), healthy runs of {} days, drives {} at rest, transmission η {}, {} thread(s)",
+        "evaluate: {} suite, seed {}, trainings of {} days, faults over {} days ({}, severity x{}), healthy runs of {} days, drives {} at rest, transmission η {}, network seed {}, {} thread(s)",
         if args.quick { "quick" } else { "full" },
         args.seed,
         cfg.train_days,
@@ -103,6 +108,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             DriveArg::Off => "off",
         },
         cfg.efficiency,
+        cfg.net_seed,
         args.threads
     ));
     let ev = run_suite(&cfg, &|line| ui.progress(format_args!("evaluate: {line}")))

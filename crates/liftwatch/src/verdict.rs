@@ -32,6 +32,7 @@ use crate::fit::FittedModel;
 use crate::forecast::{unit_of, Forecast, ModeForecast, When};
 use crate::ingest::time::{day_text, instant_text, is_calendar};
 use crate::mode::{FaultMode, MACHINE_MODES, N_MODES};
+use crate::model::train::DecidedBy;
 use crate::monitor::MonitorState;
 use crate::operation::{Outage, DOOR_MIN_CYCLES, DOOR_MIN_DAYS};
 use crate::risk::DriftScale;
@@ -547,7 +548,7 @@ fn caveats(model: &FittedModel, state: &MonitorState) -> Vec<String> {
         .summary
         .parameters
         .iter()
-        .filter(|p| p.prior_sd.is_some() && !p.determined)
+        .filter(|p| p.prior_sd.is_some() && p.decided_by() == DecidedBy::Prior)
         .map(|p| p.name.as_str())
         .collect();
     if !by_prior.is_empty() {

@@ -174,7 +174,7 @@ fn json_summary(
                 "std_error": r.std_error.and_then(finite),
                 "quarters_se": r.quarters_se.and_then(finite),
                 "unit": r.unit,
-                "decided_by": if r.determined { "data" } else { "prior" },
+                "decided_by": r.decided_by().code(),
                 "corrected": r.corrected.and_then(finite),
             });
             (r.name.to_string(), v)
@@ -250,11 +250,7 @@ pub fn summary(m: &fit::FittedModel, trips: usize, seconds: f64) -> String {
             quarters,
             corrected,
             r.unit,
-            if r.determined {
-                "data"
-            } else {
-                "prior (weakly identifiable)"
-            }
+            r.decided_by().words()
         );
     }
     if f.parameters.iter().any(|r| r.quarters_se.is_some()) {

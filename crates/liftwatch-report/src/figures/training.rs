@@ -234,11 +234,7 @@ pub(super) fn parameters(c: &Ctx) -> Section {
         let se = report.and_then(|r| r.std_error).unwrap_or(f64::NAN);
         let shown = value_text(name, value, report.and_then(|r| r.prior_sd));
         panels.push(parameter_panel(fit, k, (name, unit), value, se, &shown));
-        let by = match report {
-            Some(r) if r.determined => "data",
-            Some(_) => "prior (weakly identifiable)",
-            None => "n/a",
-        };
+        let by = report.map_or("n/a", |r| r.decided_by().words());
         let corrected = report
             .and_then(|r| r.corrected)
             .map_or_else(|| "-".to_string(), num);

@@ -63,7 +63,7 @@ mod rows;
 mod tests;
 
 pub use crate::stats::robust_sigma;
-pub use report::{FitSummary, ParamReport, Stage2Stop};
+pub use report::{DecidedBy, FitSummary, ParamReport, Stage2Stop};
 pub use rows::{TrainingRow, TrainingRows};
 
 /// Rounds of stage 1: Gauss-Newton at a fixed σ_U, then σ_U re-estimated from its residuals.

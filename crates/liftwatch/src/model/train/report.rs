@@ -63,6 +63,54 @@ pub struct ParamReport {
     pub quarters_se: Option<f64>,
 }
 
+/// What set a parameter's value ([`ParamReport::decided_by`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DecidedBy {
+    /// The data narrowed the prior at least threefold.
+    Data,
+    /// The prior, which the data hardly narrowed.
+    Prior,
+    /// Held at 0 by the fit's own test: the loss asymmetry ε of a drive whose free fit put it
+    /// within its noise of 0 (`EPS_HELD_SD`), the lossless drive of MODEL.md. The data
+    /// decided it, though no standard error of the held fit says so.
+    Held,
+}
+
+impl DecidedBy {
+    /// The word of the fit's JSON summary (`decided_by`).
+    pub fn code(self) -> &'static str {
+        match self {
+            DecidedBy::Data => "data",
+            DecidedBy::Prior => "prior",
+            DecidedBy::Held => "held",
+        }
+    }
+
+    /// The words of the fit's table and the report's parameter panels.
+    pub fn words(self) -> &'static str {
+        match self {
+            DecidedBy::Data => "data",
+            DecidedBy::Prior => "prior (weakly identifiable)",
+            DecidedBy::Held => "data: held at 0, no asymmetry beyond its noise",
+        }
+    }
+}
+
+impl ParamReport {
+    /// What set the value: the data, the prior, or the fit's test that held it.
+    pub fn decided_by(&self) -> DecidedBy {
+        let held = self.name == PhysParams::NAMES[PhysParams::EPS]
+            && self.prior_sd.is_some_and(|sd| sd <= EPS_HELD_SD);
+        if held {
+            DecidedBy::Held
+        } else if self.determined {
+            DecidedBy::Data
+        } else {
+            DecidedBy::Prior
+        }
+    }
+}
+
 /// Why stage 2 stopped, and how far its loss still fell at the end.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Stage2Stop {

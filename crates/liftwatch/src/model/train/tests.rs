@@ -152,6 +152,18 @@ fn paper_exact_data_give_the_identifiable_parameters_back_within_2_percent() {
         "{:?}",
         fit.summary.warnings
     );
+    // A lossless drive's ε is held at 0 by the fit's own test: the data's call, not the
+    // prior's, as the table, the report and the verdict's caveats say.
+    let by = |fit: &Trained, name: &str| {
+        fit.summary
+            .parameters
+            .iter()
+            .find(|r| r.name == name)
+            .map(ParamReport::decided_by)
+    };
+    assert_eq!(by(&fit, "loss_asymmetry"), Some(DecidedBy::Held));
+    assert_eq!(by(&fit, "c_visc"), Some(DecidedBy::Prior));
+    assert_eq!(by(&fit, "kd"), Some(DecidedBy::Data));
     assert!(
         (fit.summary.rms_u_v - 2.0).abs() < 0.2,
         "rms {}",
@@ -170,7 +182,14 @@ fn a_lossy_transmission_is_its_own_parameter_and_leaves_alpha_down_the_direction
         loss_asymmetry: (1.0 / eta - eta) / (1.0 / eta + eta),
         ..truth()
     };
-    let p = fit_paper_exact(&t, &e).parameters;
+    let fit = fit_paper_exact(&t, &e);
+    let eps = fit
+        .summary
+        .parameters
+        .iter()
+        .find(|r| r.name == "loss_asymmetry");
+    assert_eq!(eps.map(ParamReport::decided_by), Some(DecidedBy::Data));
+    let p = fit.parameters;
     let rel = |a: f64, b: f64| (a - b).abs() / b.abs();
     assert!(rel(p.alpha_down, t.alpha_down) < 0.02, "α_down {p:?}");
     assert!(rel(p.kd, t.kd) < 0.02, "Kd {p:?}");

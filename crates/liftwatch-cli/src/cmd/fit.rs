@@ -233,8 +233,10 @@ pub fn summary(m: &fit::FittedModel, trips: usize, seconds: f64) -> String {
         "{:<27} {:>12} {:>11} {:>11} {:>12}  {:<6} decided by",
         "parameter", "value", "std error", "quarters", "corrected", "unit"
     );
-    let cell =
-        |v: Option<f64>, none: &str| v.map_or_else(|| none.to_string(), |v| format!("{v:.5}"));
+    // Five decimals; a value that rounds to zero is written 0.00000, not -0.00000 (a held ε
+    // of −3·10⁻¹⁶).
+    let five = |v: f64| format!("{:.5}", if v.abs() < 5e-6 { 0.0 } else { v });
+    let cell = |v: Option<f64>, none: &str| v.map_or_else(|| none.to_string(), five);
     for r in &f.parameters {
         let (se, quarters, corrected) = (
             cell(r.std_error, "n/a"),
@@ -243,9 +245,9 @@ pub fn summary(m: &fit::FittedModel, trips: usize, seconds: f64) -> String {
         );
         let _ = writeln!(
             s,
-            "{:<27} {:>12.5} {:>11} {:>11} {:>12}  {:<6} {}",
+            "{:<27} {:>12} {:>11} {:>11} {:>12}  {:<6} {}",
             r.name,
-            r.value,
+            five(r.value),
             se,
             quarters,
             corrected,

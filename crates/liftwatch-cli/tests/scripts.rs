@@ -426,6 +426,61 @@ fn evaluate_writes_the_floor_the_delays_and_their_figure() {
     assert!(std::fs::metadata(out.join("evaluation.png")).is_ok_and(|m| m.len() > 1000));
 }
 
+/// `evaluate --keep-runs` keeps a case's model and aligned log, and `monitor` on them raises
+/// the events the suite counted, at the same seconds: a case of the table traced alone (the
+/// quick suite's motor ramp, after the paper's 3-hour training).
+#[test]
+fn a_kept_run_monitored_alone_raises_the_events_the_suite_counted() {
+    let dir = Dir::new("evaluate-keep");
+    let (out, kept) = (dir.path("eval"), dir.path("kept"));
+    ok(&[
+        "evaluate",
+        "--quick",
+        "--train-days",
+        "0.125",
+        "--only",
+        "E2 motor",
+        "--keep-runs",
+        s(&kept),
+        "--out",
+        s(&out),
+        "-q",
+    ]);
+    let text = std::fs::read_to_string(out.join("evaluation.json")).expect("evaluation.json");
+    let ev: serde_json::Value = serde_json::from_str(&text).expect("evaluation.json is JSON");
+    let counted: Vec<(f64, String)> = ev["cases"][0]["methods"][0]["events"]
+        .as_array()
+        .map_or(&[][..], Vec::as_slice)
+        .iter()
+        .map(|e| (e["time"].as_f64().expect("time"), e["level"].to_string()))
+        .collect();
+    let events = dir.path("events.jsonl");
+    ok(&[
+        "monitor",
+        "--model",
+        s(&kept.join("E2-model.json")),
+        "--input",
+        s(&kept.join("E2-motor-linear-S1.0.csv.zst")),
+        "--out",
+        s(&dir.path("trips.csv")),
+        "--rows",
+        "trip",
+        "--events",
+        s(&events),
+        "-q",
+    ]);
+    let raised: Vec<(f64, String)> = std::fs::read_to_string(&events)
+        .expect("events written")
+        .lines()
+        .map(|l| {
+            let e: serde_json::Value = serde_json::from_str(l).expect("an event is JSON");
+            (e["time"].as_f64().expect("time"), e["level"].to_string())
+        })
+        .collect();
+    assert!(!counted.is_empty(), "the motor ramp is detected: {text}");
+    assert_eq!(raised, counted);
+}
+
 #[test]
 fn json_is_one_object_on_stdout_and_people_read_stderr() {
     let fx = fixture();

@@ -64,6 +64,12 @@ pub struct Args {
     /// plants and runs stay as they are, so the results' spread over it is the method's own.
     #[arg(long, default_value_t = 1)]
     pub net_seed: u64,
+    /// Keep each trained elevator's model (`E2-model.json`) and each case's aligned log as its
+    /// monitors read it (`E2-motor-linear-S0.5.csv.zst`) in this directory (created if
+    /// missing), to trace a case with `monitor`, `report` and `status`; meant with `--only`
+    /// (a 25-day case is about 2.2 M samples).
+    #[arg(long, value_name = "DIR")]
+    pub keep_runs: Option<PathBuf>,
     /// Summary: --quiet, --json.
     #[command(flatten)]
     pub ui: UiArgs,
@@ -89,6 +95,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     cfg.drive_at_rest = args.drive_at_rest.plant();
     cfg.efficiency = args.efficiency;
     cfg.net_seed = args.net_seed;
+    if let Some(dir) = &args.keep_runs {
+        anyhow::ensure!(
+            !liftwatch::input::is_stdio(dir),
+            "--keep-runs cannot be `-`: it names a directory"
+        );
+        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    }
+    cfg.keep_runs = args.keep_runs;
     let ui = Ui::new(args.ui, &[])?;
     let clock = Instant::now();
     ui.say(format_args!(

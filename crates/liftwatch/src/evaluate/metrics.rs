@@ -21,12 +21,14 @@
 //! downward and braking trips alike, so the brake figure compares like with nearly like.
 
 use serde::Serialize;
+use std::path::PathBuf;
 
 use super::charts::{Chart, ChartCalibration};
 use super::floor::{floor_delay_s, oracle_threshold};
 use super::trips::{TripGrouper, TripSummary};
 use super::PERSISTENT_TRIPS;
 use crate::alarm::{Event, Evidence, Level};
+use crate::align::AlignedWriter;
 use crate::align::SampleSink;
 use crate::error::{Error, Result};
 use crate::fit::FittedModel;
@@ -34,6 +36,7 @@ use crate::ingest::Signal;
 use crate::mode::{FaultMode, MACHINE_MODES};
 use crate::monitor::{Monitor, MonitorRow};
 use crate::operation::{OperationEvent, Outage};
+use crate::output::AtomicFile;
 use crate::risk::DriftScale;
 use crate::sample::{Sample, DAY_S, HOUR_S, YEAR_DAYS};
 use crate::sim::logger::RawAligner;
@@ -438,6 +441,44 @@ pub(super) struct CaseSink {
     /// True severity σ per second from the start (f32 keeps a month in a few MB).
     pub(super) severity: Vec<f32>,
     pub(super) start: f64,
+    /// The aligned samples the monitors watch, written as they come (`--keep-runs`), and the
+    /// file's path.
+    pub(super) kept: Option<KeptLog>,
+}
+
+/// A case's aligned log being written for `--keep-runs` ([`super::SuiteConfig::keep_runs`]).
+pub(super) struct KeptLog {
+    path: PathBuf,
+    writer: Option<AlignedWriter<AtomicFile>>,
+}
+
+impl KeptLog {
+    /// A log to be written at `path` once the first sample says whether a current column comes.
+    pub(super) fn new(path: PathBuf) -> KeptLog {
+        KeptLog { path, writer: None }
+    }
+
+    fn start(&mut self, has_current: bool) -> Result<()> {
+        let file = AtomicFile::create_data(&self.path)?;
+        let writer = AlignedWriter::new(file, has_current).map_err(|e| Error::io(&self.path, e))?;
+        self.writer = Some(writer);
+        Ok(())
+    }
+
+    fn push(&mut self, s: &Sample) -> Result<()> {
+        match self.writer.as_mut() {
+            Some(w) => w.write(s).map_err(|e| Error::io(&self.path, e)),
+            None => Ok(()),
+        }
+    }
+
+    /// Commits the file into place.
+    pub(super) fn commit(self) -> Result<()> {
+        match self.writer {
+            Some(w) => w.finish().map_err(|e| Error::io(&self.path, e))?.commit(),
+            None => Ok(()),
+        }
+    }
 }
 
 impl CaseSink {
@@ -505,13 +546,19 @@ impl CaseSink {
 impl SampleSink for CaseSink {
     type Error = Error;
 
-    fn start(&mut self, _has_current: bool) -> Result<()> {
+    fn start(&mut self, has_current: bool) -> Result<()> {
         // The streaming pass never reads its input again (a late row is an error, see
         // `sim::logger::RawAligner`), so this comes once, before any sample.
-        Ok(())
+        match self.kept.as_mut() {
+            Some(k) => k.start(has_current),
+            None => Ok(()),
+        }
     }
 
     fn push(&mut self, sample: &Sample) -> Result<()> {
+        if let Some(k) = self.kept.as_mut() {
+            k.push(sample)?;
+        }
         let mut r = MonitorRow::EMPTY;
         if self.pinn.push_into(sample, &mut r) {
             self.pinn_row(&r);

@@ -209,6 +209,10 @@ pub fn run_suite(cfg: &SuiteConfig, progress: &(dyn Fn(&str) + Sync)) -> Result<
             ),
             seconds: secs,
         });
+        if let Some(dir) = cfg.keep_runs.as_deref() {
+            let name = format!("{}-model", fe.name);
+            crate::file::save(&suite::kept_path(dir, &name, "json"), &t.model)?;
+        }
         refs[e] = Some(t);
     }
     let n = cases.len();

@@ -9,12 +9,13 @@
 //! ```
 
 use crate::sample::{DAY_S, HOUR_S};
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use serde::Serialize;
 
 use super::charts::{ChartCalibration, Cusum, Ewma, CUSUM_K, EWMA_LAMBDA};
-use super::metrics::{AlignedLog, CaseSink, MethodResult, Metrics};
+use super::metrics::{AlignedLog, CaseSink, KeptLog, MethodResult, Metrics};
 use super::trips::{healthy_trip_means, TripGrouper};
 use crate::alarm::Level;
 use crate::elevator::Elevator;
@@ -125,6 +126,12 @@ pub struct SuiteConfig {
     /// lost between two builds must be read (stage 2 ends where its budget stops a
     /// non-convex walk, and a walk started from θ a billionth apart ends elsewhere too).
     pub net_seed: u64,
+    /// A directory to keep what each run was (`evaluate --keep-runs`): every trained
+    /// elevator's model (`E2-model.json`) and every case's aligned log as its monitors read it
+    /// (`E2-motor-linear-S0.5.csv.zst`, zstd: a 25-day run is about 2.2 M samples), so that one
+    /// case can be traced with `monitor`, `report` and `status`. None: nothing is kept.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub keep_runs: Option<PathBuf>,
 }
 
 impl SuiteConfig {
@@ -143,6 +150,7 @@ impl SuiteConfig {
             drive_at_rest: DriveAtRest::Energised,
             efficiency: 1.0,
             net_seed: TrainConfig::default().seed,
+            keep_runs: None,
         }
     }
 }
@@ -368,6 +376,12 @@ fn derive_seed(base: u64, e: usize, tag: u64) -> u64 {
     r.next_u64()
 }
 
+/// The file of `name` (a case's or an elevator's, its spaces as dashes) with `extension` in
+/// the `--keep-runs` directory `dir`.
+pub fn kept_path(dir: &Path, name: &str, extension: &str) -> PathBuf {
+    dir.join(format!("{}.{extension}", name.replace(' ', "-")))
+}
+
 /// A case's seed tag from its name (FNV-1a, 64 bits): stable when cases are added, removed or
 /// reordered, as an index into the list is not.
 fn name_tag(name: &str) -> u64 {
@@ -496,6 +510,10 @@ pub fn run_case(case: &Case, trained: &Trained, cfg: &SuiteConfig) -> Result<Cas
         thr_prev: Level::Normal,
         severity: Vec::with_capacity((case.days * DAY_S) as usize + 2),
         start: sc.start_s,
+        kept: cfg
+            .keep_runs
+            .as_deref()
+            .map(|dir| KeptLog::new(kept_path(dir, &case.name, "csv.zst"))),
     };
     // The monitors watch the raw log aligned as it is logged, as in the field; the truth rows
     // only give the severity per second.
@@ -503,6 +521,9 @@ pub fn run_case(case: &Case, trained: &Trained, cfg: &SuiteConfig) -> Result<Cas
     let truth = sim::run(&sc, &mut log, &mut |_| {})?;
     log.finish()?;
     sink.finish();
+    if let Some(k) = sink.kept.take() {
+        k.commit()?;
+    }
     let onset = case.onset_days.map(|d| sc.start_s + d * DAY_S);
     let end = sc.start_s + sc.duration_s();
     let exposure_days = (onset.unwrap_or(end) - sc.start_s) / DAY_S;

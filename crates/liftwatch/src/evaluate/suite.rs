@@ -382,14 +382,10 @@ pub fn kept_path(dir: &Path, name: &str, extension: &str) -> PathBuf {
     dir.join(format!("{}.{extension}", name.replace(' ', "-")))
 }
 
-/// A case's seed tag from its name (FNV-1a, 64 bits): stable when cases are added, removed or
-/// reordered, as an index into the list is not.
+/// A case's seed tag from its name (FNV-1a, 64 bits, [`crate::file::fnv1a`]): stable when
+/// cases are added, removed or reordered, as an index into the list is not.
 fn name_tag(name: &str) -> u64 {
-    const FNV_OFFSET: u64 = 0xCBF2_9CE4_8422_2325;
-    const FNV_PRIME: u64 = 0x0100_0000_01B3;
-    name.bytes().fold(FNV_OFFSET, |h, b| {
-        (h ^ u64::from(b)).wrapping_mul(FNV_PRIME)
-    })
+    crate::file::fnv1a(name.as_bytes())
 }
 
 /// The trained reference of one elevator: hidden plant, model and chart limits.

@@ -6,7 +6,7 @@
 //! stdout), and writes `evaluation.json` (every case, every metric, the calibrations) into
 //! `--out`.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::Context;
@@ -75,15 +75,19 @@ pub struct Args {
     pub ui: UiArgs,
 }
 
+/// Creates the output directory `dir` (and its parents); `stdio` is the refusal of `-`.
+fn directory(dir: &Path, stdio: &str) -> anyhow::Result<()> {
+    anyhow::ensure!(!liftwatch::input::is_stdio(dir), "{stdio}");
+    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))
+}
+
 /// Runs `evaluate`.
 pub fn run(args: Args) -> anyhow::Result<()> {
     anyhow::ensure!(args.threads >= 1, "--threads must be at least 1");
-    anyhow::ensure!(
-        !liftwatch::input::is_stdio(&args.out),
-        "--out cannot be `-`: evaluate writes evaluation.json into a directory (--json puts the summary on stdout)"
-    );
-    std::fs::create_dir_all(&args.out)
-        .with_context(|| format!("cannot create {}", args.out.display()))?;
+    directory(
+        &args.out,
+        "--out cannot be `-`: evaluate writes evaluation.json into a directory (--json puts the summary on stdout)",
+    )?;
     let mut cfg = SuiteConfig::new(args.seed, args.quick);
     cfg.threads = args.threads;
     cfg.train_days = args.train_days;
@@ -96,11 +100,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     cfg.efficiency = args.efficiency;
     cfg.net_seed = args.net_seed;
     if let Some(dir) = &args.keep_runs {
-        anyhow::ensure!(
-            !liftwatch::input::is_stdio(dir),
-            "--keep-runs cannot be `-`: it names a directory"
-        );
-        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+        directory(dir, "--keep-runs cannot be `-`: it names a directory")?;
     }
     cfg.keep_runs = args.keep_runs;
     let ui = Ui::new(args.ui, &[])?;

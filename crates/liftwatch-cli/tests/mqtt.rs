@@ -120,13 +120,7 @@ fn telemetry_through_a_broker_gives_the_rows_of_a_batch_run_and_events_come_out(
         Some(TOKEN),
         &["--mqtt", &url("svc:svc-pw")],
     );
-    let (st, reply) = server.req(
-        "POST",
-        "/api/v1/elevators/lift-m/models",
-        Some(TOKEN),
-        &std::fs::read(&model).unwrap(),
-    );
-    assert_eq!(st, 201, "{reply}");
+    server.upload_model("lift-m", &std::fs::read(&model).unwrap());
     // An operator's subscription to the events topic, as a dashboard or a ticket system has.
     let events_file = dir.path("mqtt-events.jsonl");
     let sub = Command::new(MOSQUITTO_SUB)

@@ -519,13 +519,7 @@ fn a_gateway_over_mqtt_reaches_a_worker() {
         ],
         Some(TOKEN),
     );
-    let (st, reply) = worker.req(
-        "POST",
-        "/api/v1/elevators/lift-m/models",
-        Some(TOKEN),
-        &std::fs::read(&model).unwrap(),
-    );
-    assert_eq!(st, 201, "{reply}");
+    worker.upload_model("lift-m", &std::fs::read(&model).unwrap());
     let (st, _) = worker.req("POST", "/api/v1/elevators/lift-m/models", None, b"{}");
     assert_eq!(st, 401, "a write without the token is refused");
     // Three hours of the healthy day through MQTT, in 60-s batches (QoS 1).

@@ -97,13 +97,7 @@ fn a_stream_killed_and_restarted_gives_the_rows_of_a_batch_run() {
     );
     let port = server.port;
     let body = std::fs::read(&model).unwrap();
-    let (st, reply) = server.req(
-        "POST",
-        "/api/v1/elevators/lift-1/models",
-        Some(TOKEN),
-        &body,
-    );
-    assert_eq!(st, 201, "{reply}");
+    server.upload_model("lift-1", &body);
 
     // The first 20 000 rows by hand: 10-s batches, rows shuffled within each batch (less than
     // the 30-s reorder window), every 5th batch sent twice (at-least-once delivery). Batches
@@ -130,13 +124,7 @@ fn a_stream_killed_and_restarted_gives_the_rows_of_a_batch_run() {
         }
         let body = format!("time,signal,value\n{}\n", b.join("\n"));
         for _ in 0..(1 + usize::from(i % 5 == 0)) {
-            let (st, reply) = server.req(
-                "POST",
-                "/api/v1/elevators/lift-1/telemetry",
-                Some(TOKEN),
-                body.as_bytes(),
-            );
-            assert_eq!(st, 200, "{reply}");
+            server.post_telemetry("lift-1", &body);
         }
     }
 
@@ -268,24 +256,12 @@ fn a_checkpoint_of_another_build_restarts_the_monitor_and_the_stream_goes_on() {
     let post = |server: &Server, rows: &[&str]| {
         for chunk in rows.chunks(5_000) {
             let body = format!("time,signal,value\n{}\n", chunk.join("\n"));
-            let (st, reply) = server.req(
-                "POST",
-                "/api/v1/elevators/lift-1/telemetry",
-                Some(TOKEN),
-                body.as_bytes(),
-            );
-            assert_eq!(st, 200, "{reply}");
+            server.post_telemetry("lift-1", &body);
         }
     };
     let data = dir.path("data");
     let mut server = Server::start(&data, "127.0.0.1:0", Some(TOKEN));
-    let (st, reply) = server.req(
-        "POST",
-        "/api/v1/elevators/lift-1/models",
-        Some(TOKEN),
-        &std::fs::read(&model).unwrap(),
-    );
-    assert_eq!(st, 201, "{reply}");
+    server.upload_model("lift-1", &std::fs::read(&model).unwrap());
     let half = lines.len() / 2;
     post(&server, &lines[..half]);
     settle(&server);

@@ -148,6 +148,20 @@ impl Server {
         request(self.port, method, path, token, body, "text/csv")
     }
 
+    /// Activates the model file `model` (its bytes) for elevator `id` with the test token.
+    pub fn upload_model(&self, id: &str, model: &[u8]) {
+        let path = format!("/api/v1/elevators/{id}/models");
+        let (st, reply) = self.req("POST", &path, Some(TOKEN), model);
+        assert_eq!(st, 201, "POST {path}: {reply}");
+    }
+
+    /// Posts `body`, raw telemetry as CSV, for elevator `id` with the test token; it is taken.
+    pub fn post_telemetry(&self, id: &str, body: &str) {
+        let path = format!("/api/v1/elevators/{id}/telemetry");
+        let (st, reply) = self.req("POST", &path, Some(TOKEN), body.as_bytes());
+        assert_eq!(st, 200, "POST {path}: {reply}");
+    }
+
     pub fn get_json(&self, path: &str) -> Value {
         let (status, body) = self.req("GET", path, None, b"");
         assert_eq!(status, 200, "GET {path}: {body}");

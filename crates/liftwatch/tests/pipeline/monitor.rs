@@ -121,16 +121,23 @@ fn healthy_days_stay_normal_and_a_motor_fault_is_named() {
     );
 }
 
+/// The fixture `tests/data/model_before_loss_asymmetry.json`: its path, its text and the
+/// model this build reads from it.
+fn model_before_loss_asymmetry() -> (std::path::PathBuf, String, liftwatch::fit::FittedModel) {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data/model_before_loss_asymmetry.json");
+    let text = std::fs::read_to_string(&path).expect("the fixture is there");
+    let m = liftwatch::file::load_str(&text, &path).expect("an earlier build's model loads");
+    (path, text, m)
+}
+
 #[test]
 fn a_model_written_before_the_loss_asymmetry_loads_as_the_lossless_drive_it_was() {
     // `liftwatch fit` of 4.8 hours (`simulate --days 0.2 --start-hour 7 --seed 3`) by the
     // build before the loss asymmetry ε (c400a4c): nine parameters, nine values of θ in each
     // point of its history. It loads with ε = 0, and the drive it describes is the lossless
     // one it was fitted as: the resistive term's gain is φ(s) either way the power flows.
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/data/model_before_loss_asymmetry.json");
-    let text = std::fs::read_to_string(&path).expect("the fixture is there");
-    let m = liftwatch::file::load_str(&text, &path).expect("an earlier build's model loads");
+    let (path, text, m) = model_before_loss_asymmetry();
     let p = m.hybrid.parameters;
     assert_eq!(p.loss_asymmetry, 0.0);
     assert!(!m.summary.history.is_empty());
@@ -148,10 +155,7 @@ fn a_model_keeps_the_identity_of_its_file_under_a_build_that_writes_it_otherwise
     // The fixture is an earlier build's file: this build writes the same model with ε and a
     // tenth value of θ in each point of the history, another document. A state records the
     // identity of the file, so states saved with it resume under this build and later ones.
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/data/model_before_loss_asymmetry.json");
-    let text = std::fs::read_to_string(&path).expect("the fixture is there");
-    let m = liftwatch::file::load_str(&text, &path).expect("an earlier build's model loads");
+    let (path, text, m) = model_before_loss_asymmetry();
     let id = model_id(&m);
     let rewritten = serde_json::to_string_pretty(&m).expect("a model serialises");
     let as_written = liftwatch::file::load_str(&rewritten, &path).expect("this build's text loads");

@@ -113,6 +113,28 @@ fn three_hours_and_eighty_trips_fit_and_monitor() {
         fit.contains("extrapolated from the 98."),
         "the fit must say its baseline limits are extrapolated:\n{fit}"
     );
+    // Two draws of the network, the one that ended lower kept; the model file lists both.
+    assert!(
+        fit.contains("network: the lowest loss of 2 draws kept"),
+        "the fit says which draw it kept:\n{fit}"
+    );
+    let m: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&model).expect("model written")).expect("JSON");
+    let draws = m["fit"]["draws"].as_array().expect("fit.draws");
+    let kept: Vec<&serde_json::Value> = draws.iter().filter(|d| d["kept"] == true).collect();
+    let loss = |v: &serde_json::Value| -> f64 {
+        v.as_str()
+            .map_or_else(|| v.as_f64(), |t| t.parse().ok())
+            .expect("a loss")
+    };
+    assert!(draws.len() == 2 && kept.len() == 1, "{draws:?}");
+    assert!(
+        draws
+            .iter()
+            .all(|d| loss(&d["loss"]) >= loss(&kept[0]["loss"]))
+            && loss(&kept[0]["loss"]) == loss(&m["fit"]["loss_final"]),
+        "{draws:?}"
+    );
     let state = dir.0.join("state.json");
     for method in ["pinn", "threshold"] {
         let (rows, events) = (

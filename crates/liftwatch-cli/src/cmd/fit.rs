@@ -37,9 +37,14 @@ pub struct Args {
     /// Adam's learning rate.
     #[arg(long, default_value_t = 1e-3)]
     pub learning_rate: f64,
-    /// Seed of the network's initial weights.
+    /// Seed of the network's initial weights (of the first draw).
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+    /// Draws of the network's initial weights the L-BFGS stage runs from, each on a thread of
+    /// its own; the one that ends at the lowest loss is kept (1: `--seed` alone).
+    #[arg(long, default_value_t = liftwatch::model::DEFAULT_DRAWS as u64,
+          value_parser = clap::value_parser!(u64).range(1..=64))]
+    pub draws: u64,
     /// Step (s) the model is fitted at: raw input is aligned at it (1 s when left out);
     /// aligned input is read at its own step unless this asks for another.
     #[arg(long)]
@@ -147,6 +152,7 @@ fn train_config(args: &Args) -> TrainConfig {
         epochs,
         learning_rate: args.learning_rate,
         seed: args.seed,
+        draws: args.draws as usize,
         log_every: if optimizer == Optimizer::Adam {
             1000
         } else {
@@ -200,6 +206,7 @@ fn json_summary(
             "recent_gain": finite(st.recent_gain),
             "converged": st.reason.converged(),
         })),
+        "draws": f.draws,
         "parameters": parameters,
         "sigma_u_v": m.hybrid.scales.sigma_u_v,
         "sigma_f_n": m.hybrid.scales.sigma_f_n,
@@ -270,6 +277,22 @@ pub fn summary(m: &fit::FittedModel, trips: usize, seconds: f64) -> String {
     }
     if let Some(stop) = &f.stage2_stop {
         let _ = writeln!(s, "{}", stop.describe(f.iterations));
+    }
+    if let Some(kept) = f.draws.iter().find(|d| d.kept) {
+        let others: Vec<String> = f
+            .draws
+            .iter()
+            .filter(|d| !d.kept)
+            .map(|d| format!("{:.4} (seed {})", d.loss, d.seed))
+            .collect();
+        let _ = writeln!(
+            s,
+            "network: the lowest loss of {} draws kept, {:.4} (seed {}), against {}",
+            f.draws.len(),
+            kept.loss,
+            kept.seed,
+            others.join(", ")
+        );
     }
     for w in &f.warnings {
         let _ = writeln!(s, "note: {w}");

@@ -24,7 +24,7 @@ use crate::features::FeatureRow;
 
 pub use net::ResidualNet;
 pub use physics::PhysParams;
-pub use train::{FitSummary, TrainConfig};
+pub use train::{FitSummary, TrainConfig, DEFAULT_DRAWS};
 
 /// Healthy residual scales σ_U, σ_F from the fit: they make the residuals dimensionless.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]

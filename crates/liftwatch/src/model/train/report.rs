@@ -111,6 +111,20 @@ impl ParamReport {
     }
 }
 
+/// One draw of the network's initial weights stage 2 ran from, and where it ended.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Stage2Draw {
+    /// Seed of its initial weights (`fit --seed` of a fit that draws once gives this network).
+    pub seed: u64,
+    /// Iterations it ran.
+    pub iterations: usize,
+    /// Its final loss.
+    #[serde(with = "crate::exact")]
+    pub loss: f64,
+    /// Whether it was the one carried on.
+    pub kept: bool,
+}
+
 /// Why stage 2 stopped, and how far its loss still fell at the end.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Stage2Stop {
@@ -178,6 +192,11 @@ pub struct FitSummary {
     /// before it was kept.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub stage2_stop: Option<Stage2Stop>,
+    /// The draws of the network stage 2 ran from, where it drew several
+    /// ([`TrainConfig::draws`](super::TrainConfig::draws)); empty with one and in models
+    /// written before draws were kept.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub draws: Vec<Stage2Draw>,
     /// Warnings about what the data could not determine.
     pub warnings: Vec<String>,
 }

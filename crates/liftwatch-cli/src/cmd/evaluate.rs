@@ -64,6 +64,11 @@ pub struct Args {
     /// plants and runs stay as they are, so the results' spread over it is the method's own.
     #[arg(long, default_value_t = 1)]
     pub net_seed: u64,
+    /// Draws of the network in every training (as `fit --draws`): the better of two by
+    /// default; 1 trains each from `--net-seed` alone.
+    #[arg(long, default_value_t = liftwatch::model::DEFAULT_DRAWS as u64,
+          value_parser = clap::value_parser!(u64).range(1..=64))]
+    pub draws: u64,
     /// Keep each trained elevator's model (`E2-model.json`) and each case's aligned log as its
     /// monitors read it (`E2-motor-linear-S0.5.csv.zst`) in this directory (created if
     /// missing), to trace a case with `monitor`, `report` and `status`; meant with `--only`
@@ -99,6 +104,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     cfg.drive_at_rest = args.drive_at_rest.plant();
     cfg.efficiency = args.efficiency;
     cfg.net_seed = args.net_seed;
+    cfg.draws = args.draws as usize;
     if let Some(dir) = &args.keep_runs {
         directory(dir, "--keep-runs cannot be `-`: it names a directory")?;
     }
@@ -106,7 +112,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let ui = Ui::new(args.ui, &[])?;
     let clock = Instant::now();
     ui.say(format_args!(
-        "evaluate: {} suite, seed {}, trainings of {} days, faults over {} days ({}, severity x{}), healthy runs of {} days, drives {} at rest, transmission η {}, network seed {}, {} thread(s)",
+        "evaluate: {} suite, seed {}, trainings of {} days, faults over {} days ({}, severity x{}), healthy runs of {} days, drives {} at rest, transmission η {}, network seed {} ({} draw(s)), {} thread(s)",
         if args.quick { "quick" } else { "full" },
         args.seed,
         cfg.train_days,
@@ -123,6 +129,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         },
         cfg.efficiency,
         cfg.net_seed,
+        cfg.draws,
         args.threads
     ));
     let ev = run_suite(&cfg, &|line| ui.progress(format_args!("evaluate: {line}")))

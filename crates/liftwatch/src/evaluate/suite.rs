@@ -126,6 +126,8 @@ pub struct SuiteConfig {
     /// lost between two builds must be read (stage 2 ends where its budget stops a
     /// non-convex walk, and a walk started from θ a billionth apart ends elsewhere too).
     pub net_seed: u64,
+    /// Draws of the network in every training ([`TrainConfig::draws`], as `fit --draws`).
+    pub draws: usize,
     /// A directory to keep what each run was (`evaluate --keep-runs`): every trained
     /// elevator's model (`E2-model.json`) and every case's aligned log as its monitors read it
     /// (`E2-motor-linear-S0.5.csv.zst`, zstd: a 25-day run is about 2.2 M samples), so that one
@@ -150,6 +152,7 @@ impl SuiteConfig {
             drive_at_rest: DriveAtRest::Energised,
             efficiency: 1.0,
             net_seed: TrainConfig::default().seed,
+            draws: TrainConfig::default().draws,
             keep_runs: None,
         }
     }
@@ -442,6 +445,7 @@ pub fn train(fe: &FleetElevator, e: usize, cfg: &SuiteConfig) -> Result<Trained>
     let (series, _) = sim::simulate_aligned(&sc)?;
     let train = TrainConfig {
         seed: cfg.net_seed,
+        draws: cfg.draws,
         ..TrainConfig::default()
     };
     let outcome = fit(&series, &fe.elevator, &train, &mut |_| {})?;

@@ -248,17 +248,24 @@ fn the_speed_readings_noise_is_measured_and_does_not_turn_back_emf_into_friction
     assert!(ke.corrected.unwrap() > ke.value);
 }
 
+/// Paper-exact observations of `trips` trips (1 V of noise, seed `seed`) with a drive effect
+/// the physics lacks: a bump of `height` V in the moving voltage around `at` m/s (a change of
+/// the inverter's modulation, say).
+fn with_drive_bump(e: &Elevator, trips: usize, seed: u64, height: f64, at: f64) -> Observations {
+    let mut rows = paper_exact(&truth(), e, 1.0, trips, seed);
+    for r in rows.iter_mut().filter(|r| r.s != 0) {
+        r.voltage += height * (-((r.v.abs() - at) / 0.3).powi(2)).exp();
+    }
+    observations(&rows, e.floors, 0.1).unwrap()
+}
+
 #[test]
 fn the_network_corrects_what_the_physics_cannot_represent() {
     // A drive effect the physics lacks: a 5 V bump in voltage around 0.9 m/s (a modulation
     // change of the inverter, say). The hybrid model must explain it without moving Kd.
     let e = Elevator::new(1000.0, 1.75, 26);
     let t = truth();
-    let mut rows = paper_exact(&t, &e, 1.0, 240, 9);
-    for r in rows.iter_mut().filter(|r| r.s != 0) {
-        r.voltage += 5.0 * (-((r.v.abs() - 0.9) / 0.3).powi(2)).exp();
-    }
-    let obs = observations(&rows, e.floors, 0.1).unwrap();
+    let obs = with_drive_bump(&e, 240, 9, 5.0, 0.9);
     let physics_only = TrainConfig {
         epochs: 0,
         log_every: 0,
@@ -319,11 +326,7 @@ fn of_two_draws_the_network_that_ends_lower_is_kept_exactly_as_it_would_end_alon
     // The drive effect of the test above, 3 hours' worth of trips, a budget that ends before
     // the plateau: where each draw ends depends on its start.
     let e = Elevator::new(1000.0, 1.75, 26);
-    let mut rows = paper_exact(&truth(), &e, 1.0, 160, 12);
-    for r in rows.iter_mut().filter(|r| r.s != 0) {
-        r.voltage += 5.0 * (-((r.v.abs() - 0.9) / 0.3).powi(2)).exp();
-    }
-    let obs = observations(&rows, e.floors, 0.1).unwrap();
+    let obs = with_drive_bump(&e, 160, 12, 5.0, 0.9);
     let fit = |seed: u64, draws: usize| {
         let cfg = TrainConfig {
             seed,
@@ -366,11 +369,7 @@ fn the_physics_does_not_depend_on_how_the_network_was_trained() {
     // error or more apart between two builds that differed in the last bit of tanh). The
     // paper's joint Adam moves θ with the network and is left out.
     let e = Elevator::new(1000.0, 1.75, 26);
-    let mut rows = paper_exact(&truth(), &e, 1.0, 120, 4);
-    for r in rows.iter_mut().filter(|r| r.s != 0) {
-        r.voltage += 4.0 * (-((r.v.abs() - 0.8) / 0.3).powi(2)).exp();
-    }
-    let obs = observations(&rows, e.floors, 0.1).unwrap();
+    let obs = with_drive_bump(&e, 120, 4, 4.0, 0.8);
     let fit = |seed: u64, epochs: usize| {
         let cfg = TrainConfig {
             seed,

@@ -197,9 +197,23 @@ fn training_text(c: &Ctx) -> Vec<String> {
             "θ and the correcting network together by Adam from the prior, as the paper trains"
         }
     };
-    let stop = fit.stage2_stop.map_or_else(String::new, |st| {
+    let mut stop = fit.stage2_stop.map_or_else(String::new, |st| {
         format!(" {}.", st.describe(fit.iterations))
     });
+    if let Some(kept) = fit.draws.iter().find(|d| d.kept) {
+        let others: Vec<String> = fit
+            .draws
+            .iter()
+            .filter(|d| !d.kept)
+            .map(|d| num(d.loss))
+            .collect();
+        stop.push_str(&format!(
+            " Stage 2 ran from {} draws of the network's initial weights and kept the one that ended lowest ({} against {}); the history shown is its.",
+            fit.draws.len(),
+            num(kept.loss),
+            others.join(", ")
+        ));
+    }
     vec![format!(
         "The fit has two stages: Gauss-Newton on the physical parameters θ alone (stage 1), then {stage2} \
          (stage 2, {} iterations). The loss went from {} to {} (a factor {}; {} at the end of stage 1).{stop} Final RMS \

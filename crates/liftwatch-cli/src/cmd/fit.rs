@@ -278,21 +278,8 @@ pub fn summary(m: &fit::FittedModel, trips: usize, seconds: f64) -> String {
     if let Some(stop) = &f.stage2_stop {
         let _ = writeln!(s, "{}", stop.describe(f.iterations));
     }
-    if let Some(kept) = f.draws.iter().find(|d| d.kept) {
-        let others: Vec<String> = f
-            .draws
-            .iter()
-            .filter(|d| !d.kept)
-            .map(|d| format!("{:.4} (seed {})", d.loss, d.seed))
-            .collect();
-        let _ = writeln!(
-            s,
-            "network: the lowest loss of {} draws kept, {:.4} (seed {}), against {}",
-            f.draws.len(),
-            kept.loss,
-            kept.seed,
-            others.join(", ")
-        );
+    if let Some(draws) = f.kept_draw() {
+        let _ = writeln!(s, "network: {draws}");
     }
     for w in &f.warnings {
         let _ = writeln!(s, "note: {w}");

@@ -200,18 +200,9 @@ fn training_text(c: &Ctx) -> Vec<String> {
     let mut stop = fit.stage2_stop.map_or_else(String::new, |st| {
         format!(" {}.", st.describe(fit.iterations))
     });
-    if let Some(kept) = fit.draws.iter().find(|d| d.kept) {
-        let others: Vec<String> = fit
-            .draws
-            .iter()
-            .filter(|d| !d.kept)
-            .map(|d| num(d.loss))
-            .collect();
+    if let Some(draws) = fit.kept_draw() {
         stop.push_str(&format!(
-            " Stage 2 ran from {} draws of the network's initial weights and kept the one that ended lowest ({} against {}); the history shown is its.",
-            fit.draws.len(),
-            num(kept.loss),
-            others.join(", ")
+            " Stage 2 ran from several draws of the network's initial weights: {draws}; the history shown is the kept one's."
         ));
     }
     vec![format!(

@@ -636,8 +636,7 @@ pub fn train(
     history.log(point(1, iteration, loss1, st1, &map, &x));
 
     // Stage 2.
-    let draw = |seed| ResidualNet::new(seed, net0.input_scale, net0.output_scale).weights;
-    let (iters, stage2_stop, draws) = fit_hybrid(&obj, &mut x, &draw, cfg, iteration, &mut history);
+    let (iters, stage2_stop, draws) = fit_hybrid(&obj, &mut x, cfg, iteration, &mut history);
     let (loss_final, st) = obj.eval(&x, None);
     if history.points.last().map(|p| p.iteration) != Some(iteration + iters) {
         history.log(point(2, iteration + iters, loss_final, st, &map, &x));
@@ -886,14 +885,14 @@ fn noise_corrected(
 
 /// Stage 2 from `x` with the configured optimiser: L-BFGS fits the network with θ held at
 /// stage 1's, from `cfg.draws` draws of its weights (`x`'s own, drawn with `cfg.seed`, and
-/// those `draw` makes for further seeds), keeping the one that ends lowest ([`best_draw`]);
+/// [`ResidualNet::new`]'s at the objective's scales for further seeds), keeping the one that
+/// ends lowest ([`best_draw`]);
 /// Adam fits both from the prior centre, as the paper does. Logs every `cfg.log_every`
 /// iterations and the last; returns the iterations run, how it ended (`None` when no
 /// iteration ran) and the draws when there were several.
 fn fit_hybrid(
     obj: &Objective<'_>,
     x: &mut Vec<f64>,
-    draw: &dyn Fn(u64) -> Vec<f64>,
     cfg: &TrainConfig,
     iteration: usize,
     history: &mut History<'_>,
@@ -917,34 +916,35 @@ fn fit_hybrid(
             history.log(point(2, iteration + it, loss, st, &obj.map, x));
         }
     };
-    let mut draws = Vec::new();
-    let (it, reason) = match cfg.optimizer {
+    let (it, reason, draws) = match cfg.optimizer {
         Optimizer::Lbfgs => {
             let z: [f64; N_PHYS] = x[..N_PHYS].try_into().expect("x starts with z");
             let network = HeldTheta::new(obj, &z);
             if cfg.draws == 1 {
                 let (it, xf, stop) = lbfgs::minimise(&network, x, cfg.epochs, &mut on_iter);
                 *x = xf;
-                (it, stop)
+                (it, stop, Vec::new())
             } else {
                 let mut starts = vec![(cfg.seed, x.clone())];
                 for seed in draw_seeds(cfg.seed, cfg.draws).skip(1) {
                     let mut xs = x.clone();
-                    xs[N_PHYS..].copy_from_slice(&draw(seed));
+                    let net = ResidualNet::new(seed, obj.input_scale, obj.output_scale);
+                    xs[N_PHYS..].copy_from_slice(&net.weights);
                     starts.push((seed, xs));
                 }
-                let kept = best_draw(&network, starts, cfg.epochs, &mut draws);
+                let (kept, draws) = best_draw(&network, starts, cfg.epochs);
                 // The kept draw's iterations, as they happened.
                 for &(it, loss, st) in &kept.log {
                     on_iter(it, loss, st, &kept.x);
                 }
                 *x = kept.x;
-                (kept.iterations, kept.stop)
+                (kept.iterations, kept.stop, draws)
             }
         }
         Optimizer::Adam => (
             adam::minimise(obj, x, cfg.epochs, cfg.learning_rate, &mut on_iter),
             Stop::Budget,
+            Vec::new(),
         ),
     };
     let stop = match (recent.front(), recent.back()) {
@@ -969,14 +969,13 @@ struct Descent {
 
 /// Runs L-BFGS from each start for `epochs` (each on a thread of its own: they are
 /// independent, so the result does not depend on how they are scheduled) and returns the
-/// descent that ended lowest (the first of equals); `draws` gets each start's seed,
-/// iterations and final loss.
+/// descent that ended lowest (the first of equals), with each start's seed, iterations and
+/// final loss.
 fn best_draw(
     network: &HeldTheta<'_>,
     starts: Vec<(u64, Vec<f64>)>,
     epochs: usize,
-    draws: &mut Vec<Stage2Draw>,
-) -> Descent {
+) -> (Descent, Vec<Stage2Draw>) {
     let runs: Vec<Descent> = std::thread::scope(|s| {
         let handles: Vec<_> = starts
             .iter()
@@ -1008,18 +1007,19 @@ fn best_draw(
         .enumerate()
         .min_by(|(i, a), (j, b)| a.loss.total_cmp(&b.loss).then(i.cmp(j)))
         .map_or(0, |(i, _)| i);
-    draws.extend(
-        runs.iter()
-            .zip(&starts)
-            .enumerate()
-            .map(|(i, (run, (seed, _)))| Stage2Draw {
-                seed: *seed,
-                iterations: run.iterations,
-                loss: run.loss,
-                kept: i == kept,
-            }),
-    );
-    runs.into_iter().nth(kept).expect("kept is one of the runs")
+    let draws = runs
+        .iter()
+        .zip(&starts)
+        .enumerate()
+        .map(|(i, (run, (seed, _)))| Stage2Draw {
+            seed: *seed,
+            iterations: run.iterations,
+            loss: run.loss,
+            kept: i == kept,
+        })
+        .collect();
+    let run = runs.into_iter().nth(kept).expect("kept is one of the runs");
+    (run, draws)
 }
 
 /// The seeds of `n` draws of the network: `seed` itself first, then seeds drawn from it.

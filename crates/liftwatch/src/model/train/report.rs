@@ -201,6 +201,28 @@ pub struct FitSummary {
     pub warnings: Vec<String>,
 }
 
+impl FitSummary {
+    /// Which draw of the network stage 2 kept, against the others, e.g. "the lowest loss of
+    /// 2 draws kept, 0.8944 (seed 11051901573049731021), against 0.9138 (seed 1)"; `None`
+    /// when it drew once.
+    pub fn kept_draw(&self) -> Option<String> {
+        let kept = self.draws.iter().find(|d| d.kept)?;
+        let others: Vec<String> = self
+            .draws
+            .iter()
+            .filter(|d| !d.kept)
+            .map(|d| format!("{:.4} (seed {})", d.loss, d.seed))
+            .collect();
+        Some(format!(
+            "the lowest loss of {} draws kept, {:.4} (seed {}), against {}",
+            self.draws.len(),
+            kept.loss,
+            kept.seed,
+            others.join(", ")
+        ))
+    }
+}
+
 /// Standard errors from the Gauss-Newton covariance of the voltage equation at the final θ
 /// with the network held fixed, which parameters the data determined, and the covariance
 /// itself (`None` when it is singular).

@@ -370,6 +370,11 @@ pub fn calibrate(
     if let Some(seq) = &mut cfg.sequential {
         // Floors for a bootstrap too short to show the tail: a CUSUM's G exceeds h about
         // once in e^h trips per statistic, a one-sided z² beyond h once in e^(h/2) windows.
+        // Statistics per mode: the CUSUMs' sizes and the GLR's window lengths. Not its step
+        // window (risk::sequential::STEP_WINDOW_TRIPS): it is weighed only when all eight of
+        // its trips are beyond the clip of 3 sd, which healthy Gaussian trips do with a
+        // chance of 0.00135⁸ ≈ 10⁻²³, far below the e^(−h/2) each counted window has at the
+        // floor; trips with heavier tails are the bootstrap's to show, running the same code.
         let statistics = (N_MODES * (N_SIZES + GLR_LENGTHS.len())) as f64;
         let target = settings.target_false_advisories_per_year.max(1e-3);
         let floor = (statistics * trips_per_year / target).ln().max(1.0);
